@@ -1,0 +1,37 @@
+# Two commands for a fresh machine with Python 3.11 and make:
+#   make run   — set up .venv and run the default workflow
+#   make test  — set up .venv and run the tests, the linter, dry runs and the small profile
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+CORES ?= 2
+
+.PHONY: setup run test test-slow bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+run: setup
+	$(BIN)/snakemake --cores $(CORES) --configfile config/config.yaml
+
+test: setup
+	$(BIN)/python -m pytest
+	$(BIN)/snakemake --lint
+	$(BIN)/snakemake --dry-run --quiet --configfile config/config.yaml
+	$(BIN)/snakemake --dry-run --quiet --configfile config/test.yaml
+	$(BIN)/snakemake --cores $(CORES) --configfile config/test.yaml
+
+test-slow: setup
+	$(BIN)/python -m pytest -m slow
+
+bench: setup
+	$(BIN)/python benchmarks/run.py
+
+clean:
+	rm -rf results .snakemake

@@ -1,0 +1,98 @@
+"""Tensor-product Chebyshev interpolation of vector-valued functions, evaluated in bulk.
+
+Used to carry the tension dependence of the condensed static operator (SPEC §4.3): the exact
+operator is computed at Chebyshev nodes and interpolated between them, which converges
+spectrally for the smooth (analytic) dependence on tension.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import product
+from typing import Callable
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ChebyshevInterpolant:
+    """Interpolant of a function R^d → R^m on a box.
+
+    Attributes
+    ----------
+    lower, upper : numpy.ndarray
+        Box bounds, shape (d,); a dimension with ``lower == upper`` is constant (degree 0).
+    degrees : tuple of int
+        Polynomial degree per dimension.
+    coefficients : numpy.ndarray
+        Chebyshev coefficients, shape (Π(degree + 1), m), C-ordered over the dimensions.
+    """
+
+    lower: np.ndarray
+    upper: np.ndarray
+    degrees: tuple[int, ...]
+    coefficients: np.ndarray
+
+    def basis(self, points: np.ndarray) -> np.ndarray:
+        """Tensor Chebyshev basis at ``points`` (N, d), shape (N, Π(degree + 1))."""
+        points = np.atleast_2d(points)
+        out = np.ones((points.shape[0], 1))
+        for dim, deg in enumerate(self.degrees):
+            t = _to_unit(points[:, dim], self.lower[dim], self.upper[dim])
+            b = chebyshev_basis(t, deg)
+            out = (out[:, :, None] * b[:, None, :]).reshape(points.shape[0], -1)
+        return out
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        """Interpolated values at ``points`` (N, d), shape (N, m)."""
+        return self.basis(points) @ self.coefficients
+
+    def contains(self, points: np.ndarray, rtol: float = 1e-12) -> np.ndarray:
+        """True for points inside the box (with a relative tolerance)."""
+        points = np.atleast_2d(points)
+        span = np.maximum(self.upper - self.lower, np.abs(self.upper) * rtol)
+        return np.all((points >= self.lower - rtol * span) & (points <= self.upper + rtol * span), axis=1)
+
+
+def chebyshev_basis(t: np.ndarray, degree: int) -> np.ndarray:
+    """Chebyshev polynomials T_0..T_degree at ``t`` ∈ [−1, 1], shape (N, degree + 1)."""
+    t = np.asarray(t, dtype=float)
+    b = np.empty((t.size, degree + 1))
+    b[:, 0] = 1.0
+    if degree >= 1:
+        b[:, 1] = t
+    for j in range(2, degree + 1):
+        b[:, j] = 2.0 * t * b[:, j - 1] - b[:, j - 2]
+    return b
+
+
+def fit_chebyshev(fun: Callable[[np.ndarray], np.ndarray], lower, upper, degrees) -> ChebyshevInterpolant:
+    """Interpolate ``fun`` (point (d,) → values (m,)) at the tensor Chebyshev nodes of the first kind."""
+    lower = np.atleast_1d(np.asarray(lower, dtype=float))
+    upper = np.atleast_1d(np.asarray(upper, dtype=float))
+    if np.any(upper < lower):
+        raise ValueError(f"upper bounds {upper} below lower bounds {lower}")
+    degrees = tuple(0 if upper[i] == lower[i] else int(d) for i, d in enumerate(np.broadcast_to(degrees, lower.shape)))
+    nodes = [np.cos(np.pi * (np.arange(d + 1) + 0.5) / (d + 1)) for d in degrees]
+    grid_points = [np.array([_from_unit(t, lower[i], upper[i]) for i, t in enumerate(combo)])
+                   for combo in product(*nodes)]
+    values = np.array([np.asarray(fun(p), dtype=float).ravel() for p in grid_points])
+    shape = tuple(d + 1 for d in degrees)
+    coef = values.reshape(shape + (values.shape[1],))
+    for axis, d in enumerate(degrees):
+        n = d + 1
+        k = np.arange(n)
+        transform = (2.0 / n) * np.cos(np.pi * np.outer(k, k + 0.5) / n)  # (j, node)
+        transform[0] *= 0.5
+        coef = np.moveaxis(np.tensordot(transform, coef, axes=([1], [axis])), 0, axis)
+    return ChebyshevInterpolant(lower, upper, degrees, coef.reshape(-1, values.shape[1]))
+
+
+def _to_unit(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    if hi == lo:
+        return np.zeros_like(x, dtype=float)
+    return (2.0 * x - (lo + hi)) / (hi - lo)
+
+
+def _from_unit(t: float, lo: float, hi: float) -> float:
+    return 0.5 * (lo + hi) + 0.5 * (hi - lo) * t

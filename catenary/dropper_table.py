@@ -1,0 +1,109 @@
+"""Inverse static problem: dropper lengths that give a target contact-wire profile (SPEC §4.2).
+
+With the CW heights prescribed at the droppers, the CW equilibrium alone gives the dropper
+tensions (9 equations, 9 unknowns per span); loading the MW with those tensions gives its
+heights, and each unstretched length follows from Hooke's law,
+``L = l · EA / (EA + F)`` with ``l`` the stretched length. The half dropper weight carried by
+each wire depends on ``L``, so the three steps are repeated until the lengths stop changing
+(a contraction: two or three passes reach 1e-12 m). The same solver builds the nominal
+dropper table, updates dropper lengths in the dynamic correction and inverts measured spans.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import Catenary, SpanType
+from .errors import ConvergenceError
+from .section import Section, single_span
+from .static import StaticModel
+
+
+@dataclass(frozen=True)
+class InverseResult:
+    """Dropper lengths reproducing a target CW profile.
+
+    Attributes
+    ----------
+    dropper_lengths_m : numpy.ndarray
+        Unstretched dropper lengths [m].
+    dropper_force_n : numpy.ndarray
+        Dropper tensions at equilibrium [N].
+    section : Section
+        The section with those lengths.
+    """
+
+    dropper_lengths_m: np.ndarray
+    dropper_force_n: np.ndarray
+    section: Section
+
+
+def presag_deflection_m(span_type: SpanType, x_m: np.ndarray) -> np.ndarray:
+    """Designed CW deflection from the chord [m]: a parabola of depth ``presag_m`` between the
+    first and the last dropper, zero outside (negative = below the chord)."""
+    x = np.asarray(x_m, dtype=float)
+    a, b = span_type.dropper_positions_m[0], span_type.dropper_positions_m[-1]
+    inside = (x >= a) & (x <= b)
+    return np.where(inside, -4.0 * span_type.presag_m * (x - a) * (b - x) / (b - a) ** 2, 0.0)
+
+
+def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heights_m: np.ndarray, *,
+                                   tolerance_m: float = 1e-12, max_iterations: int = 20) -> InverseResult:
+    """Unstretched dropper lengths giving the CW heights ``cw_heights_m`` at every dropper.
+
+    Parameters
+    ----------
+    section : Section
+        Geometry and tensions; its dropper lengths are the starting guess.
+    catenary : Catenary
+    cw_heights_m : array_like
+        Target CW height at each dropper of the section [m].
+
+    Raises
+    ------
+    ValueError
+        If the target needs a dropper in compression (no taut solution exists).
+    ConvergenceError
+        If the lengths do not settle (should not happen: the weight coupling is weak).
+    """
+    target = np.asarray(cw_heights_m, dtype=float)
+    if target.shape != section.dropper_lengths_m.shape:
+        raise ValueError(f"cw_heights_m: expected {section.dropper_lengths_m.size} heights, got {target.size}")
+    ea = catenary.droppers.axial_stiffness_n
+    lengths = section.dropper_lengths_m.copy()
+    no_droppers = np.zeros(lengths.size, dtype=bool)
+    for _ in range(max_iterations):
+        model = StaticModel(section.with_dropper_lengths(lengths), catenary)
+        # CW with its dropper points prescribed: the reactions there are the dropper tensions.
+        u, k, f = model._linear_solve(no_droppers, model.f_gravity, model.dropper_cw_dof, target)
+        force = (k @ u - f)[model.dropper_cw_dof]
+        if np.any(force <= 0):
+            bad = np.flatnonzero(force <= 0).tolist()
+            raise ValueError(f"target CW profile needs droppers {bad} in compression "
+                             f"(forces {force[bad]} N); no taut dropper lengths produce it")
+        # MW under its weight and the dropper tensions.
+        loads = model.f_gravity.copy()
+        np.add.at(loads, model.dropper_mw_dof, -force)
+        np.add.at(loads, model.dropper_cw_dof, force)
+        u, _, _ = model._linear_solve(no_droppers, loads)
+        stretched = u[model.dropper_mw_dof] - target
+        new = stretched * ea / (ea + force)
+        change = np.max(np.abs(new - lengths))
+        lengths = new
+        if change < tolerance_m:
+            break
+    else:
+        raise ConvergenceError(f"dropper lengths did not settle in {max_iterations} passes (last change {change:.3g} m)")
+    return InverseResult(lengths, force, section.with_dropper_lengths(lengths))
+
+
+def nominal_dropper_lengths(span_type: SpanType, catenary: Catenary) -> InverseResult:
+    """Nominal dropper table of ``span_type``: the lengths giving its presag profile on one
+    span at the design tensions and system height, steady arms at the design height."""
+    x = span_type.dropper_positions_m
+    guess = np.full(x.size, span_type.system_height_m)
+    section = single_span(span_type, guess)
+    target = span_type.cw_height_m + presag_deflection_m(span_type, x)
+    return dropper_lengths_for_cw_heights(section, catenary, target)

@@ -1,0 +1,17 @@
+"""Exceptions raised by the :mod:`catenary` package.
+
+Every error message names what was wrong (file, row, column or config key) and what was
+expected, so that a user can fix the input without reading the code.
+"""
+
+
+class CatenaryError(Exception):
+    """Base class of every error the package raises on purpose."""
+
+
+class ConfigError(CatenaryError, ValueError):
+    """A configuration value is missing or inconsistent; the message names the key."""
+
+
+class ConvergenceError(CatenaryError, RuntimeError):
+    """A nonlinear solve did not converge; no result is returned in that case."""

@@ -1,0 +1,252 @@
+"""Fast static model of one span for sampling (SPEC §4.3).
+
+With every dropper taut, the static FE model of a span (:mod:`catenary.static`) is linear in
+the loads, the dropper lengths and the support heights; only the tensions enter its operator.
+Condensing it exactly onto the dropper forces ``F`` gives, per tension pair,
+
+    (D(L) + C_cw + C_mw) F = b_mw − b_cw + (G_mw − G_cw − I) L + e_l ΔH_l + e_r ΔH_r
+    W = b_cw + C_cw F + G_cw L
+
+with ``C`` the flexibilities of each wire at the dropper points, ``b`` the wire heights under
+their own weight and clamps (supports at zero), ``G`` the effect of the half dropper weight
+``½ m_d g L`` on each wire, ``e_l, e_r`` the MW response to its support heights and
+``D(L) = diag(L / EA)`` the dropper compliances. ``D`` is split into a reference part (at the
+nominal lengths) and a small deviation handled by one fixed-point step, whose residual is
+below 1e-8 of the dropper stretch.
+
+The condensed operator is computed exactly at Chebyshev nodes in ``1/T_MW`` (and ``1/T_CW``
+when the contact-wire tension varies) and interpolated between them; the interpolation error
+is checked against exact condensations in the tests (< 1e-8 m). Everything else is whole-array
+NumPy: no Python loop over samples. Samples whose dropper forces come out negative would have
+slack droppers: they are flagged, and their W is not the static solution.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse.linalg import splu
+
+from .chebyshev import ChebyshevInterpolant, fit_chebyshev
+from .config import Catenary, SpanType
+from .dropper_table import nominal_dropper_lengths
+from .section import single_span
+from .static import StaticModel
+
+
+@dataclass(frozen=True)
+class CondensedSpan:
+    """Exact condensation of a span's static model onto its droppers at given tensions.
+
+    All heights are for steady arms and MW supports at zero height; arrays are (n,) or (n, n)
+    over the n droppers, in [m], [m/N] or [m/m].
+    """
+
+    flex_cw_m_n: np.ndarray
+    flex_mw_m_n: np.ndarray
+    weight_cw_m: np.ndarray
+    weight_mw_m: np.ndarray
+    dropper_weight_cw: np.ndarray
+    dropper_weight_mw: np.ndarray
+    support_left_mw: np.ndarray
+    support_right_mw: np.ndarray
+
+
+def condense_span(span_type: SpanType, catenary: Catenary, messenger_tension_n: float,
+                  contact_tension_n: float) -> CondensedSpan:
+    """Condense the FE model of one span of ``span_type`` onto its dropper points."""
+    n = span_type.n_droppers
+    section = single_span(span_type, np.ones(n), contact_tension_n=contact_tension_n,
+                          messenger_tension_n=messenger_tension_n)
+    model = StaticModel(section, catenary)
+    k = model.k_wires.tocsr()
+    free, fixed = model.free, model.fixed
+    lu = splu(k[free][:, free].tocsc())
+    k_free_fixed = k[free][:, fixed]
+    g = catenary.gravity_m_s2
+    half_dropper_n = 0.5 * catenary.droppers.mass_per_length_kg_m * g  # per metre of dropper
+    c, m = model.dropper_cw_dof, model.dropper_mw_dof
+    # Loads of the wires and clamps only: remove the dropper wire weight of the unit-length model.
+    f_base = model.f_gravity.copy()
+    f_base[c] += half_dropper_n
+    f_base[m] += half_dropper_n
+    n_rhs = 1 + 2 * n + 2
+    loads = np.zeros((model.n_dofs, n_rhs))
+    supports = np.zeros((fixed.size, n_rhs))
+    loads[:, 0] = f_base
+    cols = np.arange(n)
+    loads[c, 1 + cols] = 1.0          # unit dropper tension: pulls the CW up ...
+    loads[m, 1 + cols] = -1.0         # ... and the MW down
+    loads[c, 1 + n + cols] = -half_dropper_n  # weight of one metre of dropper j
+    loads[m, 1 + n + cols] = -half_dropper_n
+    supports[2, 1 + 2 * n] = 1.0      # MW support heights (fixed = [cw masts, mw masts])
+    supports[3, 2 + 2 * n] = 1.0
+    u = np.zeros((model.n_dofs, n_rhs))
+    u[fixed] = supports
+    u[free] = lu.solve(loads[free] - k_free_fixed @ supports)
+    zc, zm = u[c], u[m]
+    return CondensedSpan(
+        flex_cw_m_n=zc[:, 1:1 + n], flex_mw_m_n=-zm[:, 1:1 + n],
+        weight_cw_m=zc[:, 0], weight_mw_m=zm[:, 0],
+        dropper_weight_cw=zc[:, 1 + n:1 + 2 * n], dropper_weight_mw=zm[:, 1 + n:1 + 2 * n],
+        support_left_mw=zm[:, 1 + 2 * n], support_right_mw=zm[:, 2 + 2 * n],
+    )
+
+
+@dataclass(frozen=True)
+class FastResult:
+    """Output of :meth:`FastSpanModel.evaluate`.
+
+    Attributes
+    ----------
+    w_m : numpy.ndarray
+        CW deflection from the chord at each dropper [m], shape (N, n_droppers).
+    dropper_force_n : numpy.ndarray
+        Dropper tensions [N], shape (N, n_droppers).
+    slack : numpy.ndarray of bool
+        True where some dropper would be in compression (W is then not the static solution).
+    """
+
+    w_m: np.ndarray
+    dropper_force_n: np.ndarray
+    slack: np.ndarray
+
+
+class FastSpanModel:
+    """Vectorised static model of one span of a given type, exact to the FE model.
+
+    Parameters
+    ----------
+    span_type : SpanType
+    catenary : Catenary
+    messenger_tension_bounds_n : (float, float), optional
+        Range of T_MW the model serves [N]; default 0.5–1.5 × the design tension.
+    contact_tension_bounds_n : (float, float), optional
+        Range of T_CW [N]; default: the design tension only (equal bounds).
+    degree : int
+        Chebyshev degree per varying tension (in 1/T).
+    reference_lengths_m : array_like, optional
+        Dropper lengths of the reference compliance (default: the nominal table).
+    """
+
+    def __init__(self, span_type: SpanType, catenary: Catenary, *,
+                 messenger_tension_bounds_n: tuple[float, float] | None = None,
+                 contact_tension_bounds_n: tuple[float, float] | None = None,
+                 degree: int = 10, reference_lengths_m: np.ndarray | None = None):
+        self.span_type = span_type
+        self.catenary = catenary
+        t_mw = span_type.messenger_tension_n
+        t_cw = span_type.contact_tension_n
+        mw_lo, mw_hi = messenger_tension_bounds_n or (0.5 * t_mw, 1.5 * t_mw)
+        cw_lo, cw_hi = contact_tension_bounds_n or (t_cw, t_cw)
+        if not (0 < mw_lo <= mw_hi and 0 < cw_lo <= cw_hi):
+            raise ValueError("tension bounds must be positive and ordered (lower ≤ upper) [N]")
+        self.messenger_tension_bounds_n = (float(mw_lo), float(mw_hi))
+        self.contact_tension_bounds_n = (float(cw_lo), float(cw_hi))
+        if reference_lengths_m is None:
+            reference_lengths_m = nominal_dropper_lengths(span_type, catenary).dropper_lengths_m
+        self.reference_lengths_m = np.asarray(reference_lengths_m, dtype=float)
+        n = span_type.n_droppers
+        self.n_droppers = n
+        ea = catenary.droppers.axial_stiffness_n
+        self._ea = ea
+        d_ref = np.diag(self.reference_lengths_m / ea)
+
+        def force_map(p: np.ndarray) -> np.ndarray:
+            cond = condense_span(span_type, catenary, 1.0 / p[0], 1.0 / p[1])
+            a = np.linalg.inv(d_ref + cond.flex_cw_m_n + cond.flex_mw_m_n)
+            r0 = cond.weight_mw_m - cond.weight_cw_m
+            r_l = cond.dropper_weight_mw - cond.dropper_weight_cw - np.eye(n)
+            # F0 = M @ [L, ΔH_l, ΔH_r, 1]; the correction step needs A itself.
+            m = np.column_stack([a @ r_l, a @ cond.support_left_mw, a @ cond.support_right_mw, a @ r0])
+            return np.concatenate([m.ravel(), a.ravel()])
+
+        def deflection_map(p: np.ndarray) -> np.ndarray:
+            cond = condense_span(span_type, catenary, t_mw, 1.0 / p[0])
+            # W = Q @ [F, L, 1]
+            return np.column_stack([cond.flex_cw_m_n, cond.dropper_weight_cw, cond.weight_cw_m]).ravel()
+
+        # Interpolate in reciprocal tensions: the string part of the operator is linear in 1/T.
+        lower, upper = [1.0 / mw_hi, 1.0 / cw_hi], [1.0 / mw_lo, 1.0 / cw_lo]
+        force = fit_chebyshev(lambda p: force_map(p)[:n * (n + 3)], lower, upper, degree)
+        # The compliance step is a 1e-4 relative correction: a low degree is exact enough.
+        compliance = fit_chebyshev(lambda p: force_map(p)[n * (n + 3):], lower, upper, min(degree, 4))
+        deflection = fit_chebyshev(deflection_map, [1.0 / cw_hi], [1.0 / cw_lo], degree)
+        self._force = _StackedMap(force, n, n + 3)
+        self._compliance = _StackedMap(compliance, n, n)
+        self._deflection = _StackedMap(deflection, n, 2 * n + 1)
+
+    def evaluate(self, dropper_lengths_m: np.ndarray, messenger_tension_n: np.ndarray,
+                 system_height_left_m: np.ndarray, system_height_right_m: np.ndarray,
+                 contact_tension_n: np.ndarray | float | None = None, *,
+                 chunk_size: int = 8192) -> FastResult:
+        """W, dropper forces and slack flags for N samples.
+
+        Parameters
+        ----------
+        dropper_lengths_m : array_like, shape (N, n_droppers)
+            Unstretched dropper lengths [m].
+        messenger_tension_n : array_like, shape (N,)
+            T_MW [N].
+        system_height_left_m, system_height_right_m : array_like, shape (N,)
+            ΔH at the left and right masts [m].
+        contact_tension_n : array_like or float, optional
+            T_CW [N]; default the span type's design tension.
+        chunk_size : int
+            Samples processed at once (bounds the temporary memory).
+
+        Raises
+        ------
+        ValueError
+            If shapes disagree or a tension lies outside the model's bounds.
+        """
+        lengths = np.atleast_2d(np.asarray(dropper_lengths_m, dtype=float))
+        n_samples = lengths.shape[0]
+        if lengths.shape[1] != self.n_droppers:
+            raise ValueError(f"dropper_lengths_m: expected shape (N, {self.n_droppers}), got {lengths.shape}")
+        if contact_tension_n is None:
+            contact_tension_n = self.span_type.contact_tension_n
+        columns = [np.broadcast_to(np.asarray(v, dtype=float), (n_samples,)) for v in
+                   (messenger_tension_n, system_height_left_m, system_height_right_m, contact_tension_n)]
+        t_mw, dh_l, dh_r, t_cw = columns
+        for name, values, (lo, hi) in (("messenger_tension_n", t_mw, self.messenger_tension_bounds_n),
+                                       ("contact_tension_n", t_cw, self.contact_tension_bounds_n)):
+            if np.any(values < lo * (1 - 1e-12)) or np.any(values > hi * (1 + 1e-12)) or np.any(~np.isfinite(values)):
+                raise ValueError(f"{name}: values must lie in the model's bounds [{lo}, {hi}] N "
+                                 f"(got {np.nanmin(values)}…{np.nanmax(values)}); build the model with wider bounds")
+        w = np.empty((n_samples, self.n_droppers))
+        force = np.empty_like(w)
+        for start in range(0, n_samples, chunk_size):
+            sl = slice(start, min(start + chunk_size, n_samples))
+            force[sl], w[sl] = self._evaluate_chunk(lengths[sl], t_mw[sl], dh_l[sl], dh_r[sl], t_cw[sl])
+        return FastResult(w_m=w, dropper_force_n=force, slack=np.any(force <= 0.0, axis=1))
+
+    def _evaluate_chunk(self, lengths, t_mw, dh_l, dh_r, t_cw):
+        ones = np.ones((lengths.shape[0], 1))
+        tensions = np.column_stack([1.0 / t_mw, 1.0 / t_cw])
+        f0 = self._force(tensions, np.column_stack([lengths, dh_l, dh_r, ones]))
+        # One fixed-point step for the dropper compliance deviation from the reference lengths.
+        f = f0 - self._compliance(tensions, (lengths - self.reference_lengths_m) / self._ea * f0)
+        w = self._deflection(1.0 / t_cw[:, None], np.column_stack([f, lengths, ones]))
+        return f, w
+
+
+class _StackedMap:
+    """A tension-dependent matrix map ``x ↦ M(p) @ x`` with M interpolated in Chebyshev form.
+
+    The coefficient matrices ``M_k`` are stacked side by side so that one GEMM applies all of
+    them to a block of samples, followed by a batched contraction with the basis values.
+    """
+
+    def __init__(self, interpolant: ChebyshevInterpolant, n_out: int, n_in: int):
+        k = interpolant.coefficients.shape[0]
+        self.basis = interpolant.basis
+        self.n_basis = k
+        self.stacked = interpolant.coefficients.reshape(k, n_out, n_in).transpose(2, 0, 1).reshape(n_in, k * n_out)
+
+    def __call__(self, points: np.ndarray, x: np.ndarray) -> np.ndarray:
+        if self.n_basis == 1:
+            return x @ self.stacked
+        y = (x @ self.stacked).reshape(x.shape[0], self.n_basis, -1)
+        return (self.basis(points)[:, None, :] @ y)[:, 0, :]

@@ -1,0 +1,83 @@
+"""Figures for people: matplotlib (Agg backend), one function per figure, files written as PNG.
+
+Plotting only; every number drawn here is computed elsewhere in the package.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from .sensitivity import SensitivityResult  # noqa: E402
+
+MM = 1e3
+
+
+def _span_axes(ax, result: SensitivityResult, title: str) -> None:
+    for x in result.span_type.dropper_positions_m:
+        ax.axvline(x, color="0.85", lw=0.6, zorder=0)
+    ax.set_xlabel("x along the span [m]")
+    ax.set_ylabel("CW deflection from the chord W [mm]")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+
+
+def _plot_w(ax, result: SensitivityResult, names: list[str]) -> None:
+    x = result.x_m
+    ax.plot(x, MM * result.nominal.cw_deflection_at(x), "k-", lw=1.6, label="nominal")
+    for name in names:
+        v = result.variation(name)
+        ax.plot(x, MM * v.solution.cw_deflection_at(x), lw=1.2, label=name)
+    ax.legend(fontsize=8)
+
+
+def sensitivity_figures(result: SensitivityResult, out_dir: str | Path) -> list[Path]:
+    """Write the paper's Figs 2–4 analogues for ``result``; return the paths written."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    name = result.span_type.name
+    paths = []
+    by_fig = {}
+    for v in result.variations:
+        by_fig.setdefault(v.figure, []).append(v.name)
+
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), sharey=True)
+    cw = [n for n in by_fig["fig2"] if n.startswith("contact")]
+    mw = [n for n in by_fig["fig2"] if n.startswith("messenger")]
+    for ax, names, title in ((axes[0], cw, "T_CW ±20 %"), (axes[1], mw, "T_MW ±20 %")):
+        _span_axes(ax, result, f"{name}: {title}")
+        _plot_w(ax, result, names)
+    paths.append(_save(fig, out_dir / "fig2_tensions.png"))
+
+    (sa,) = by_fig["fig3"]
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    x = result.x_m
+    v = result.variation(sa)
+    axes[0].plot(x, result.nominal.cw_height_at(x), "k-", label="nominal")
+    axes[0].plot(x, v.solution.cw_height_at(x), label=sa)
+    axes[0].set_xlabel("x along the span [m]")
+    axes[0].set_ylabel("CW height [m]")
+    axes[0].set_title(f"{name}: steady arms moved, ΔH kept (heights)")
+    axes[0].grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    _span_axes(axes[1], result, f"{name}: after projection on the chord")
+    _plot_w(axes[1], result, [sa])
+    paths.append(_save(fig, out_dir / "fig3_steady_arms.png"))
+
+    (dh,) = by_fig["fig4"]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    _span_axes(ax, result, f"{name}: ΔH_left +5 cm, ΔH_right −5 cm")
+    _plot_w(ax, result, [dh])
+    paths.append(_save(fig, out_dir / "fig4_system_height.png"))
+    return paths
+
+
+def _save(fig, path: Path) -> Path:
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

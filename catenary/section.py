@@ -1,0 +1,226 @@
+"""Geometry of a catenary section (one span or many consecutive spans) and its mesh.
+
+A *section* is a run of consecutive spans between masts. Each mast ``j`` holds the contact
+wire (CW) at its steady arm at height ``cw_support_heights_m[j]`` and the messenger wire (MW)
+at ``cw_support_heights_m[j] + system_heights_m[j]``. Droppers hang vertically; dropper ``i``
+lies in span ``dropper_span[i]`` at ``dropper_x_m[i]`` from that span's left mast and has the
+unstretched length ``dropper_lengths_m[i]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import SpanType
+from .errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Section:
+    """Geometry and tensions of a section of consecutive spans.
+
+    Attributes
+    ----------
+    span_lengths_m : numpy.ndarray
+        Lengths of the spans [m], shape (n_spans,).
+    dropper_span : numpy.ndarray
+        Span index of each dropper, shape (n_droppers,), non-decreasing.
+    dropper_x_m : numpy.ndarray
+        Dropper abscissa from the left mast of its span [m].
+    dropper_lengths_m : numpy.ndarray
+        Unstretched dropper lengths [m].
+    cw_support_heights_m : numpy.ndarray
+        Contact-wire height at each steady arm [m], shape (n_spans + 1,).
+    system_heights_m : numpy.ndarray
+        System height ΔH at each mast (MW above CW) [m], shape (n_spans + 1,).
+    contact_tension_n, messenger_tension_n : float
+        T_CW and T_MW [N], constant over the section (tensioning weights at its ends).
+    """
+
+    span_lengths_m: np.ndarray
+    dropper_span: np.ndarray
+    dropper_x_m: np.ndarray
+    dropper_lengths_m: np.ndarray
+    cw_support_heights_m: np.ndarray
+    system_heights_m: np.ndarray
+    contact_tension_n: float
+    messenger_tension_n: float
+
+    def __post_init__(self) -> None:
+        for name in ("span_lengths_m", "dropper_x_m", "dropper_lengths_m",
+                     "cw_support_heights_m", "system_heights_m"):
+            object.__setattr__(self, name, np.atleast_1d(np.asarray(getattr(self, name), dtype=float)))
+        object.__setattr__(self, "dropper_span", np.atleast_1d(np.asarray(self.dropper_span, dtype=int)))
+        n_spans = self.span_lengths_m.size
+        n_d = self.dropper_x_m.size
+        if n_spans < 1 or np.any(~np.isfinite(self.span_lengths_m)) or np.any(self.span_lengths_m <= 0):
+            raise ConfigError(f"span_lengths_m: expected positive lengths [m], got {self.span_lengths_m}")
+        for name, size in (("cw_support_heights_m", n_spans + 1), ("system_heights_m", n_spans + 1),
+                           ("dropper_span", n_d), ("dropper_lengths_m", n_d)):
+            if getattr(self, name).size != size:
+                raise ConfigError(f"{name}: expected {size} values, got {getattr(self, name).size}")
+        if np.any(self.system_heights_m <= 0):
+            raise ConfigError(f"system_heights_m: expected values > 0 [m], got {self.system_heights_m}")
+        if np.any(~np.isfinite(self.dropper_lengths_m)) or np.any(self.dropper_lengths_m <= 0):
+            raise ConfigError(f"dropper_lengths_m: expected values > 0 [m], got {self.dropper_lengths_m}")
+        if self.contact_tension_n <= 0 or self.messenger_tension_n <= 0:
+            raise ConfigError("contact_tension_n, messenger_tension_n: expected tensions > 0 [N], got "
+                              f"{self.contact_tension_n}, {self.messenger_tension_n}")
+        if n_d:
+            if np.any(np.diff(self.dropper_span) < 0) or self.dropper_span[0] < 0 or self.dropper_span[-1] >= n_spans:
+                raise ConfigError("dropper_span: expected non-decreasing span indices in [0, n_spans)")
+            length = self.span_lengths_m[self.dropper_span]
+            if np.any(self.dropper_x_m <= 0) or np.any(self.dropper_x_m >= length):
+                bad = int(np.flatnonzero((self.dropper_x_m <= 0) | (self.dropper_x_m >= length))[0])
+                raise ConfigError(f"dropper_x_m[{bad}] = {self.dropper_x_m[bad]} m lies outside its span "
+                                  f"(0, {length[bad]}) m")
+            same = self.dropper_span[1:] == self.dropper_span[:-1]
+            if np.any(same & (np.diff(self.dropper_x_m) <= 0)):
+                raise ConfigError("dropper_x_m: positions within a span must be strictly increasing")
+
+    @property
+    def n_spans(self) -> int:
+        return int(self.span_lengths_m.size)
+
+    @property
+    def mast_chainage_m(self) -> np.ndarray:
+        """Chainage of each mast from the section start [m], shape (n_spans + 1,)."""
+        return np.concatenate([[0.0], np.cumsum(self.span_lengths_m)])
+
+    @property
+    def dropper_chainage_m(self) -> np.ndarray:
+        """Chainage of each dropper from the section start [m]."""
+        return self.mast_chainage_m[self.dropper_span] + self.dropper_x_m
+
+    @property
+    def mw_support_heights_m(self) -> np.ndarray:
+        """Messenger-wire height at each mast [m]."""
+        return self.cw_support_heights_m + self.system_heights_m
+
+    def chord_height_m(self, chainage_m: np.ndarray) -> np.ndarray:
+        """Height of the chord joining the CW at the two steady arms of the span holding each point [m]."""
+        s = np.asarray(chainage_m, dtype=float)
+        masts = self.mast_chainage_m
+        span = np.clip(np.searchsorted(masts, s, side="right") - 1, 0, self.n_spans - 1)
+        frac = (s - masts[span]) / self.span_lengths_m[span]
+        h = self.cw_support_heights_m
+        return h[span] + frac * (h[span + 1] - h[span])
+
+    def with_dropper_lengths(self, dropper_lengths_m: np.ndarray) -> "Section":
+        """A copy with other unstretched dropper lengths [m]."""
+        return _replace(self, dropper_lengths_m=np.asarray(dropper_lengths_m, dtype=float))
+
+    def with_tensions(self, *, contact_tension_n: float | None = None,
+                      messenger_tension_n: float | None = None) -> "Section":
+        """A copy with other wire tensions [N]."""
+        return _replace(
+            self,
+            contact_tension_n=self.contact_tension_n if contact_tension_n is None else float(contact_tension_n),
+            messenger_tension_n=self.messenger_tension_n if messenger_tension_n is None else float(messenger_tension_n),
+        )
+
+
+def _replace(section: Section, **changes) -> Section:
+    fields = {k: getattr(section, k) for k in Section.__dataclass_fields__}
+    fields.update(changes)
+    return Section(**fields)
+
+
+def uniform_section(span_type: SpanType, n_spans: int, dropper_lengths_m: np.ndarray, *,
+                    contact_tension_n: float | None = None, messenger_tension_n: float | None = None,
+                    system_height_m: float | None = None, cw_height_m: float | None = None) -> Section:
+    """A section of ``n_spans`` identical spans of ``span_type`` at its design values.
+
+    Parameters
+    ----------
+    dropper_lengths_m : array_like
+        Unstretched lengths of the droppers of one span [m], repeated in every span.
+    """
+    lengths = np.asarray(dropper_lengths_m, dtype=float)
+    if lengths.shape != span_type.dropper_positions_m.shape:
+        raise ConfigError(f"dropper_lengths_m: expected {span_type.n_droppers} lengths for span type "
+                          f"{span_type.name}, got {lengths.size}")
+    n_d = span_type.n_droppers
+    return Section(
+        span_lengths_m=np.full(n_spans, span_type.length_m),
+        dropper_span=np.repeat(np.arange(n_spans), n_d),
+        dropper_x_m=np.tile(span_type.dropper_positions_m, n_spans),
+        dropper_lengths_m=np.tile(lengths, n_spans),
+        cw_support_heights_m=np.full(n_spans + 1, span_type.cw_height_m if cw_height_m is None else cw_height_m),
+        system_heights_m=np.full(n_spans + 1, span_type.system_height_m if system_height_m is None else system_height_m),
+        contact_tension_n=span_type.contact_tension_n if contact_tension_n is None else contact_tension_n,
+        messenger_tension_n=span_type.messenger_tension_n if messenger_tension_n is None else messenger_tension_n,
+    )
+
+
+def single_span(span_type: SpanType, dropper_lengths_m: np.ndarray, *,
+                contact_tension_n: float | None = None, messenger_tension_n: float | None = None,
+                system_height_left_m: float | None = None, system_height_right_m: float | None = None,
+                cw_height_left_m: float | None = None, cw_height_right_m: float | None = None) -> Section:
+    """One span of ``span_type`` with fixed ends (the paper's identification model)."""
+    base = uniform_section(span_type, 1, dropper_lengths_m, contact_tension_n=contact_tension_n,
+                           messenger_tension_n=messenger_tension_n)
+    dh = span_type.system_height_m
+    h = span_type.cw_height_m
+    return _replace(
+        base,
+        system_heights_m=np.array([dh if system_height_left_m is None else system_height_left_m,
+                                   dh if system_height_right_m is None else system_height_right_m]),
+        cw_support_heights_m=np.array([h if cw_height_left_m is None else cw_height_left_m,
+                                       h if cw_height_right_m is None else cw_height_right_m]),
+    )
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """Finite-element mesh shared by the contact and messenger wires.
+
+    Attributes
+    ----------
+    x_m : numpy.ndarray
+        Node chainages from the section start [m], increasing.
+    mast_nodes : numpy.ndarray
+        Node index of each mast.
+    dropper_nodes : numpy.ndarray
+        Node index of each dropper (the same node on both wires: droppers are vertical).
+    """
+
+    x_m: np.ndarray
+    mast_nodes: np.ndarray
+    dropper_nodes: np.ndarray
+
+    @property
+    def n_nodes(self) -> int:
+        return int(self.x_m.size)
+
+    @property
+    def element_length_m(self) -> np.ndarray:
+        return np.diff(self.x_m)
+
+    def locate(self, chainage_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Element index and local coordinate ξ ∈ [0, 1] of each chainage [m]."""
+        s = np.asarray(chainage_m, dtype=float)
+        if np.any(s < self.x_m[0] - 1e-9) or np.any(s > self.x_m[-1] + 1e-9):
+            raise ValueError(f"chainage outside the section [{self.x_m[0]}, {self.x_m[-1]}] m")
+        e = np.clip(np.searchsorted(self.x_m, s, side="right") - 1, 0, self.x_m.size - 2)
+        xi = np.clip((s - self.x_m[e]) / (self.x_m[e + 1] - self.x_m[e]), 0.0, 1.0)
+        return e, xi
+
+
+def build_mesh(section: Section, max_element_length_m: float) -> Mesh:
+    """Mesh with a node at every mast and dropper and elements no longer than the bound [m]."""
+    if max_element_length_m <= 0:
+        raise ConfigError(f"max_element_length_m: expected > 0, got {max_element_length_m}")
+    key = np.concatenate([section.mast_chainage_m, section.dropper_chainage_m])
+    key = np.unique(np.round(key, 9))
+    gaps = np.diff(key)
+    n_sub = np.maximum(1, np.ceil(gaps / max_element_length_m - 1e-9).astype(int))
+    pieces = [key[i] + gaps[i] * np.arange(n_sub[i]) / n_sub[i] for i in range(gaps.size)]
+    x = np.concatenate(pieces + [key[-1:]])
+    def nodes(s: np.ndarray) -> np.ndarray:
+        idx = np.searchsorted(x, np.round(s, 9) - 1e-9)
+        assert np.allclose(x[idx], s, atol=1e-8)
+        return idx
+    return Mesh(x_m=x, mast_nodes=nodes(section.mast_chainage_m), dropper_nodes=nodes(section.dropper_chainage_m))

@@ -1,0 +1,19 @@
+"""Rule sensitivity: paper Figs 2–4 analogues and their summary for one span type."""
+
+from pathlib import Path
+
+import pandas as pd
+
+from catenary.config import load_catenary
+from catenary.logs import rule_logger
+from catenary.plots import sensitivity_figures
+from catenary.sensitivity import run_sensitivity
+
+log = rule_logger("sensitivity", snakemake.log[0])
+catenary = load_catenary(snakemake.input.catenary)
+result = run_sensitivity(catenary.span_type(snakemake.wildcards.span_type), catenary,
+                         n_points=snakemake.params.n_points)
+summary = pd.DataFrame(result.summary_rows())
+summary.to_csv(snakemake.output.summary, index=False, float_format="%.4f")
+sensitivity_figures(result, Path(snakemake.output.summary).parent)
+log.info("sensitivity summary:\n%s", summary.to_string(index=False))

@@ -1,0 +1,33 @@
+import yaml
+
+RESULTS = config["results"]
+SPAN_TYPES = config["span_types"]
+
+
+def _load_catenary_config():
+    with open(config["catenary"]) as f:
+        raw = yaml.safe_load(f)
+    validate(raw, "../schemas/catenary.schema.yaml")
+    unknown = sorted(set(SPAN_TYPES) - set(raw["span_types"]))
+    if unknown:
+        raise ValueError(
+            f"config span_types: {unknown} not defined in {config['catenary']} "
+            f"(defined: {sorted(raw['span_types'])})"
+        )
+    return raw
+
+
+CATENARY = _load_catenary_config()
+
+wildcard_constraints:
+    span_type="|".join(SPAN_TYPES),
+
+
+def static_outputs():
+    return expand(
+        [
+            f"{RESULTS}/{{span_type}}/nominal/dropper_table.csv",
+            f"{RESULTS}/{{span_type}}/sensitivity/summary.csv",
+        ],
+        span_type=SPAN_TYPES,
+    )
