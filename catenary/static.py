@@ -1,7 +1,8 @@
 """Static finite-element model of a catenary section (SPEC §4.1).
 
-Contact wire (CW) and messenger wire (MW) are pre-tensioned Euler–Bernoulli beams (Hermite
-elements, :mod:`catenary.beam`) on a shared mesh. Droppers are vertical bars of stiffness
+Contact wire (CW) and messenger wire (MW) are pre-tensioned Euler–Bernoulli beams on a shared
+mesh, with the exact tensioned-beam element of :mod:`catenary.beam` (nodally exact for any
+element length: the 8 cm bending layers at droppers and masts are resolved). Droppers are vertical bars of stiffness
 ``EA / L`` in tension and none in compression; ``L`` is the unstretched length. Gravity acts
 on the wires, on the clamps and on the dropper wires (half of a dropper's weight at each end,
 taut or slack). The CW is held at each steady arm at its support height and the MW at each
@@ -119,18 +120,21 @@ def assemble_matrix(dofs: np.ndarray, blocks: np.ndarray, n_dofs: int) -> sp.csr
 
 def wire_stiffness(mesh: Mesh, wire: Wire, tension_n: float, wire_offset: int) -> sp.csr_matrix:
     """Bending plus tension stiffness of one wire, in the section's global numbering."""
-    h = mesh.element_length_m
-    k = beam.bending_stiffness(h, wire.bending_stiffness_n_m2) + beam.geometric_stiffness(h, tension_n)
+    h, inverse = np.unique(np.round(mesh.element_length_m, 12), return_inverse=True)
+    k = beam.tensioned_stiffness(h, wire.bending_stiffness_n_m2, tension_n)[inverse]
     return assemble_matrix(element_dofs(mesh, wire_offset), k, DOFS_PER_NODE * mesh.n_nodes)
 
 
-def cw_point_load_vector(mesh: Mesh, chainage_m: np.ndarray, force_n: np.ndarray) -> np.ndarray:
-    """Consistent nodal loads of vertical point forces on the CW (upward positive) [N, N·m]."""
+def cw_point_load_vector(mesh: Mesh, chainage_m: np.ndarray, force_n: np.ndarray,
+                         contact: Wire, contact_tension_n: float) -> np.ndarray:
+    """Work-equivalent nodal loads of vertical point forces on the CW (upward positive)
+    [N, N·m], with the exact shape functions so that nodal results stay exact."""
     f = np.zeros(DOFS_PER_NODE * mesh.n_nodes)
     s = np.atleast_1d(np.asarray(chainage_m, dtype=float))
     force = np.broadcast_to(np.asarray(force_n, dtype=float), s.shape)
     e, xi = mesh.locate(s)
-    n = beam.shape_functions(xi, mesh.element_length_m[e])
+    n = beam.tensioned_shape_functions(xi, mesh.element_length_m[e], contact.bending_stiffness_n_m2,
+                                       contact_tension_n)
     np.add.at(f, element_dofs(mesh, CW)[e], force[:, None] * n)
     return f
 
@@ -175,9 +179,12 @@ class StaticModel:
         cat, mesh, sec = self.catenary, self.mesh, self.section
         g = cat.gravity_m_s2
         f = np.zeros(DOFS_PER_NODE * mesh.n_nodes)
-        h = mesh.element_length_m
-        for wire, offset in ((cat.contact, CW), (cat.messenger, MW)):
-            np.add.at(f, element_dofs(mesh, offset), beam.uniform_load(h, -wire.mass_per_length_kg_m * g))
+        h, inverse = np.unique(np.round(mesh.element_length_m, 12), return_inverse=True)
+        for wire, offset, tension in ((cat.contact, CW, sec.contact_tension_n),
+                                      (cat.messenger, MW, sec.messenger_tension_n)):
+            q = -wire.mass_per_length_kg_m * g
+            loads = beam.tensioned_uniform_load(h, q, wire.bending_stiffness_n_m2, tension)[inverse]
+            np.add.at(f, element_dofs(mesh, offset), loads)
         half_dropper = 0.5 * cat.droppers.mass_per_length_kg_m * sec.dropper_lengths_m
         np.add.at(f, DOFS_PER_NODE * mesh.dropper_nodes + CW, -g * (cat.droppers.clamp_mass_contact_kg + half_dropper))
         np.add.at(f, DOFS_PER_NODE * mesh.dropper_nodes + MW, -g * (cat.droppers.clamp_mass_messenger_kg + half_dropper))
@@ -221,7 +228,8 @@ class StaticModel:
         """
         f_ext = self.f_gravity.copy()
         if cw_point_loads is not None:
-            f_ext += cw_point_load_vector(self.mesh, *cw_point_loads)
+            f_ext += cw_point_load_vector(self.mesh, *cw_point_loads, self.catenary.contact,
+                                          self.section.contact_tension_n)
         n_d = self.section.dropper_lengths_m.size
         taut = np.ones(n_d, dtype=bool) if initial_taut is None else np.asarray(initial_taut, dtype=bool).copy()
         seen = set()

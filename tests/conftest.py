@@ -1,0 +1,25 @@
+"""Shared fixtures: the project's catenary data, loaded once."""
+
+from pathlib import Path
+
+import pytest
+
+from catenary.config import load_catenary
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# Paper Table 2 (N2, s_opt): means and standard deviations of the random inputs.
+TABLE2_DROPPER_MEAN_M = [1.244, 1.098, 0.998, 0.945, 0.934, 0.945, 0.998, 1.098, 1.244]
+TABLE2_DROPPER_SIGMA_M = [0.0067, 0.0050, 0.0045, 0.0045, 0.0038, 0.0044, 0.0035, 0.0034, 0.0070]
+TABLE2_MESSENGER_TENSION_N = (20575.0, 818.0)
+TABLE2_SYSTEM_HEIGHT_M = (1.388, 0.0065)
+
+
+@pytest.fixture(scope="session")
+def catenary():
+    return load_catenary(ROOT / "config" / "catenary.yaml")
+
+
+@pytest.fixture(scope="session")
+def n2(catenary):
+    return catenary.span_type("N2")

@@ -1,0 +1,50 @@
+"""Nominal dropper table and the inverse static solver (SPEC §4.2, paper Table 2)."""
+
+import numpy as np
+import pytest
+
+from catenary.dropper_table import dropper_lengths_for_cw_heights, nominal_dropper_lengths, presag_deflection_m
+from catenary.section import single_span, uniform_section
+from catenary.static import solve_static
+
+from .conftest import TABLE2_DROPPER_MEAN_M
+
+
+def test_n2_table_reproduces_paper_table2_means(catenary, n2):
+    # Design values ΔH = 1.388 m and T_MW = 20 575 N are the Table 2 means (config).
+    assert n2.system_height_m == 1.388 and n2.messenger_tension_n == 20575.0
+    lengths = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
+    np.testing.assert_allclose(lengths, TABLE2_DROPPER_MEAN_M, atol=5e-3)
+
+
+@pytest.mark.parametrize("name", ["N2", "N3"])
+def test_nominal_table_gives_the_presag_profile(catenary, name):
+    span_type = catenary.span_type(name)
+    result = nominal_dropper_lengths(span_type, catenary)
+    sol = solve_static(result.section, catenary)
+    assert not sol.any_slack
+    target = presag_deflection_m(span_type, span_type.dropper_positions_m)
+    np.testing.assert_allclose(sol.dropper_deflection_m(), target, atol=1e-9)
+    np.testing.assert_allclose(sol.dropper_force_n, result.dropper_force_n, rtol=1e-8)
+    # Mid-span presag is the designed one; symmetric span, symmetric table.
+    assert target.min() == pytest.approx(-span_type.presag_m)
+    np.testing.assert_allclose(result.dropper_lengths_m, result.dropper_lengths_m[::-1], atol=1e-9)
+
+
+def test_inverse_then_forward_on_a_section(catenary, n2):
+    # Arbitrary feasible heights on a 3-span section with uneven supports are reproduced.
+    rng = np.random.default_rng(3)
+    lengths = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
+    section = uniform_section(n2, 3, lengths)
+    forward = solve_static(section.with_dropper_lengths(section.dropper_lengths_m + rng.normal(0, 0.003, 27)), catenary)
+    target = forward.cw_height_m[forward.mesh.dropper_nodes]
+    inverse = dropper_lengths_for_cw_heights(section, catenary, target)
+    np.testing.assert_allclose(inverse.dropper_lengths_m, forward.section.dropper_lengths_m, atol=1e-9)
+
+
+def test_infeasible_profile_is_refused(catenary, n2):
+    lengths = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
+    target = n2.cw_height_m + presag_deflection_m(n2, n2.dropper_positions_m)
+    target[4] += 0.05  # a 5 cm kink up at mid-span would need a pushing dropper beside it
+    with pytest.raises(ValueError, match="compression"):
+        dropper_lengths_for_cw_heights(single_span(n2, lengths), catenary, target)

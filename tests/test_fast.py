@@ -1,0 +1,81 @@
+"""Fast sampling model against the FE model (SPEC §4.3)."""
+
+import numpy as np
+import pytest
+from scipy.stats import qmc
+
+from catenary.chebyshev import fit_chebyshev
+from catenary.dropper_table import nominal_dropper_lengths
+from catenary.fast import FastSpanModel
+from catenary.section import single_span
+from catenary.static import solve_static
+
+from .conftest import (TABLE2_DROPPER_MEAN_M, TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N,
+                       TABLE2_SYSTEM_HEIGHT_M)
+
+
+def table2_lhs(n, seed, width=3.0):
+    """Latin-hypercube samples uniform over ±width σ of the paper's Table 2, as columns:
+    9 dropper lengths, T_MW, ΔH_left, ΔH_right."""
+    mean = np.r_[TABLE2_DROPPER_MEAN_M, TABLE2_MESSENGER_TENSION_N[0], TABLE2_SYSTEM_HEIGHT_M[0],
+                 TABLE2_SYSTEM_HEIGHT_M[0]]
+    sigma = np.r_[TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N[1], TABLE2_SYSTEM_HEIGHT_M[1],
+                  TABLE2_SYSTEM_HEIGHT_M[1]]
+    u = qmc.LatinHypercube(d=12, seed=seed).random(n)
+    return mean + width * sigma * (2 * u - 1)
+
+
+def test_fast_model_matches_fe_over_table2_lhs(catenary, n2):
+    # The issue asks for < 0.1 mm; the condensation is exact and the Chebyshev interpolation
+    # in 1/T converges spectrally, so the agreement is checked at 1e-6 m (measured ≈ 4e-9 m).
+    x = table2_lhs(200, seed=11)
+    model = FastSpanModel(n2, catenary)
+    fast = model.evaluate(x[:, :9], x[:, 9], x[:, 10], x[:, 11])
+    worst = 0.0
+    for i in range(200):
+        sol = solve_static(single_span(n2, x[i, :9], messenger_tension_n=x[i, 9], system_height_left_m=x[i, 10],
+                                       system_height_right_m=x[i, 11]), catenary)
+        assert fast.slack[i] == sol.any_slack
+        if not sol.any_slack:
+            worst = max(worst, np.max(np.abs(fast.w_m[i] - sol.dropper_deflection_m())))
+            np.testing.assert_allclose(fast.dropper_force_n[i], sol.dropper_force_n, atol=1e-4)
+    assert worst < 1e-6
+    # Uniform ±3σ corners do slacken some droppers: both models must agree on which.
+    assert 0 < fast.slack.sum() < 200
+
+
+def test_fast_model_with_varying_contact_tension(catenary, n2):
+    x = table2_lhs(40, seed=5)
+    t_cw = np.linspace(0.8, 1.2, 40) * n2.contact_tension_n
+    model = FastSpanModel(n2, catenary, contact_tension_bounds_n=(0.75 * n2.contact_tension_n,
+                                                                    1.25 * n2.contact_tension_n))
+    fast = model.evaluate(x[:, :9], x[:, 9], x[:, 10], x[:, 11], t_cw)
+    for i in range(0, 40, 4):
+        sol = solve_static(single_span(n2, x[i, :9], messenger_tension_n=x[i, 9], contact_tension_n=t_cw[i],
+                                       system_height_left_m=x[i, 10], system_height_right_m=x[i, 11]), catenary)
+        if not sol.any_slack:
+            assert np.max(np.abs(fast.w_m[i] - sol.dropper_deflection_m())) < 1e-6
+
+
+def test_fast_model_refuses_tension_outside_its_bounds(catenary, n2):
+    model = FastSpanModel(n2, catenary, messenger_tension_bounds_n=(18000.0, 23000.0))
+    lengths = nominal_dropper_lengths(n2, catenary).dropper_lengths_m[None]
+    with pytest.raises(ValueError, match="messenger_tension_n.*bounds"):
+        model.evaluate(lengths, 25000.0, 1.388, 1.388)
+
+
+def test_fast_model_is_vectorised_and_deterministic(catenary, n2):
+    x = table2_lhs(5000, seed=2)
+    model = FastSpanModel(n2, catenary)
+    a = model.evaluate(x[:, :9], x[:, 9], x[:, 10], x[:, 11], chunk_size=777)
+    b = model.evaluate(x[:, :9], x[:, 9], x[:, 10], x[:, 11])
+    np.testing.assert_allclose(a.w_m, b.w_m, rtol=0, atol=1e-15)
+
+
+def test_chebyshev_interpolation_converges_spectrally():
+    # exp on [0, 1] x [1, 2]: degree 12 tensor interpolation is exact to ~1e-13.
+    f = lambda p: np.array([np.exp(p[0] * p[1]), np.sin(p[0]) + p[1] ** 2])
+    interp = fit_chebyshev(f, [0.0, 1.0], [1.0, 2.0], 12)
+    pts = np.random.default_rng(0).uniform([0, 1], [1, 2], size=(100, 2))
+    exact = np.array([f(p) for p in pts])
+    assert np.max(np.abs(interp(pts) - exact)) < 1e-11
