@@ -20,12 +20,13 @@ setup: $(STAMP)
 run: setup
 	$(BIN)/snakemake --cores $(CORES) --configfile config/config.yaml
 
+# pytest runs last so that its summary is the closing line.
 test: setup
-	$(BIN)/python -m pytest
 	$(BIN)/snakemake --lint
 	$(BIN)/snakemake --dry-run --quiet --configfile config/config.yaml
 	$(BIN)/snakemake --dry-run --quiet --configfile config/test.yaml
 	$(BIN)/snakemake --cores $(CORES) --configfile config/test.yaml
+	$(BIN)/python -m pytest
 
 test-slow: setup
 	$(BIN)/python -m pytest -m slow
