@@ -61,14 +61,37 @@ class SteadyArm:
     Attributes
     ----------
     stiffness_n_m : float or None
-        Vertical stiffness [N/m] about the static position; ``None`` holds the contact wire
-        fixed (the static and identification models always hold it fixed).
+        Vertical stiffness [N/m] about the static position (0: a hinged arm that only
+        supplies the static holding force); ``None`` holds the contact wire fixed. Static
+        and identification models always hold it fixed.
     mass_kg : float
         Mass moving with the contact wire at the support [kg] (dynamics only).
     """
 
     stiffness_n_m: float | None
     mass_kg: float
+
+
+@dataclass(frozen=True)
+class DynamicSettings:
+    """Settings of the dynamic model (SPEC §4.4).
+
+    Attributes
+    ----------
+    time_step_s : float
+        Fixed time step of the Newmark integration [s].
+    damping_ratio : float
+        Rayleigh damping ratio reached at both ``damping_frequencies_hz`` [-].
+    damping_frequencies_hz : tuple of float
+        The two anchor frequencies of the Rayleigh damping [Hz].
+    contact_stiffness_n_m : float
+        Penalty stiffness of the pantograph–CW contact [N/m].
+    """
+
+    time_step_s: float
+    damping_ratio: float
+    damping_frequencies_hz: tuple[float, float]
+    contact_stiffness_n_m: float
 
 
 @dataclass(frozen=True)
@@ -123,6 +146,7 @@ class Catenary:
         Gravitational acceleration [m/s²].
     max_element_length_m : float
         Largest finite-element length [m].
+    dynamics : DynamicSettings
     """
 
     contact: Wire
@@ -132,6 +156,7 @@ class Catenary:
     span_types: dict[str, SpanType]
     gravity_m_s2: float
     max_element_length_m: float
+    dynamics: DynamicSettings
 
     def span_type(self, name: str) -> SpanType:
         """Return the span type ``name`` or raise a ConfigError listing the known ones."""
@@ -221,7 +246,7 @@ def catenary_from_dict(raw: Mapping[str, Any], where: str = "catenary") -> Caten
     sw = f"{where}.steady_arm"
     stiffness = _get(sa, "stiffness_n_m", sw)
     steady_arm = SteadyArm(
-        stiffness_n_m=None if stiffness is None else _number(sa, "stiffness_n_m", sw),
+        stiffness_n_m=None if stiffness is None else _number(sa, "stiffness_n_m", sw, allow_zero=True),
         mass_kg=_number(sa, "mass_kg", sw, allow_zero=True),
     )
     types_raw = _get(raw, "span_types", where)
@@ -230,6 +255,18 @@ def catenary_from_dict(raw: Mapping[str, Any], where: str = "catenary") -> Caten
     span_types = {str(name): _span_type(str(name), spec, f"{where}.span_types.{name}")
                   for name, spec in types_raw.items()}
     mesh = _get(raw, "mesh", where)
+    dyn = _get(raw, "dynamics", where)
+    dyw = f"{where}.dynamics"
+    freqs = _get(dyn, "damping_frequencies_hz", dyw)
+    if (not isinstance(freqs, (list, tuple)) or len(freqs) != 2
+            or not all(isinstance(f, (int, float)) and f > 0 for f in freqs) or freqs[0] >= freqs[1]):
+        raise ConfigError(f"{dyw}.damping_frequencies_hz: expected two increasing positive frequencies [Hz], got {freqs!r}")
+    dynamics = DynamicSettings(
+        time_step_s=_number(dyn, "time_step_s", dyw),
+        damping_ratio=_number(dyn, "damping_ratio", dyw, allow_zero=True),
+        damping_frequencies_hz=(float(freqs[0]), float(freqs[1])),
+        contact_stiffness_n_m=_number(dyn, "contact_stiffness_n_m", dyw),
+    )
     return Catenary(
         contact=wire("contact"),
         messenger=wire("messenger"),
@@ -238,6 +275,7 @@ def catenary_from_dict(raw: Mapping[str, Any], where: str = "catenary") -> Caten
         span_types=span_types,
         gravity_m_s2=_number(raw, "gravity_m_s2", where),
         max_element_length_m=_number(mesh, "max_element_length_m", f"{where}.mesh"),
+        dynamics=dynamics,
     )
 
 

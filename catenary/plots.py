@@ -81,3 +81,33 @@ def _save(fig, path: Path) -> Path:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def dynamics_figure(runs: dict, mast_chainage_m, window_m: tuple[float, float], title: str,
+                    path: str | Path, cutoff_hz: float = 20.0) -> Path:
+    """Contact force (raw and low-passed) and steady-arm uplift versus chainage, one colour
+    per speed; ``runs`` maps a label (e.g. "300 km/h") to a RunResult."""
+    import numpy as np
+
+    from .contact_statistics import lowpass
+
+    fig, (ax_f, ax_u) = plt.subplots(2, 1, figsize=(11, 7), sharex=True)
+    for label, run in runs.items():
+        dt = float(run.time_s[1] - run.time_s[0])
+        line, = ax_f.plot(run.chainage_m, run.contact_force_n, lw=0.5, alpha=0.35)
+        ax_f.plot(run.chainage_m, lowpass(run.contact_force_n, dt, cutoff_hz), lw=1.2, color=line.get_color(),
+                  label=f"{label} (0–{cutoff_hz:g} Hz)")
+        uplift = 1e3 * run.support_uplift_m
+        nearest = np.argmin(np.abs(run.chainage_m[:, None] - np.asarray(mast_chainage_m)[None, :]), axis=1)
+        ax_u.plot(run.chainage_m, uplift[np.arange(uplift.shape[0]), nearest], color=line.get_color(), label=label)
+    for ax in (ax_f, ax_u):
+        for x in mast_chainage_m:
+            ax.axvline(x, color="0.85", lw=0.6, zorder=0)
+        ax.axvspan(*window_m, color="0.95", zorder=-1)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    ax_f.set_ylabel("contact force [N]")
+    ax_u.set_ylabel("uplift of the nearest steady arm [mm]")
+    ax_u.set_xlabel("chainage [m] (shaded: analysis window)")
+    ax_f.set_title(title)
+    return _save(fig, Path(path))

@@ -28,6 +28,7 @@ def static_outputs():
         [
             f"{RESULTS}/{{span_type}}/nominal/dropper_table.csv",
             f"{RESULTS}/{{span_type}}/sensitivity/summary.csv",
+            f"{RESULTS}/{{span_type}}/dynamics/statistics.csv",
         ],
         span_type=SPAN_TYPES,
     )

@@ -1,0 +1,472 @@
+"""Dynamic pantograph–catenary model (SPEC §4.4).
+
+Catenary
+    The static model's mesh and exact tensioned-beam stiffness (:mod:`catenary.static`), with
+    Hermite consistent mass of both wires, lumped clamp masses, half of each dropper's mass at
+    each end, and optional steady arms: at a mast with a steady arm the CW is free vertically,
+    held by a spring of stiffness ``steady_arm.stiffness_n_m`` about its static height plus a
+    constant holding force equal to the static reaction, and carries ``steady_arm.mass_kg``.
+    The MW is fixed at the masts.
+Damping
+    Rayleigh, ``C = α M + β K₀``, with α, β chosen so the damping ratio equals
+    ``damping_ratio`` at the two frequencies ``damping_frequencies_hz`` (default 1 % at 1 and
+    20 Hz, hence ≥ 0.43 % in between and rising outside); ``K₀`` has every dropper taut.
+Nonlinearities
+    Droppers are tension-only and the pantograph head touches the CW through a penalty spring
+    (``contact_stiffness_n_m``) that only pushes. Both are written as pseudo-forces on the
+    linear all-taut model: a slack dropper ``j`` adds ``g_j λ_j`` with ``λ_j = min(k_j e_j, 0)``
+    (``e_j`` its elongation, ``g_j`` its unit pair of nodal forces), and the contact adds
+    ``N(x_p) F_c`` with the beam shape functions at the contact point. Each step solves a small
+    active-set system for the slack droppers and the contact, using Green's functions of the
+    factorised effective stiffness (precomputed per dropper, one back-substitution per step for
+    the moving contact point). The linear operator is factorised once (banded Cholesky).
+Time integration
+    Newmark average acceleration (β = 1/4, γ = 1/2): implicit, unconditionally stable and
+    energy-conserving for the linear undamped system; fixed step. It starts from the static
+    equilibrium of catenary and pantograph at the start position.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.linalg import cholesky_banded
+from scipy.linalg.lapack import dpbtrs
+
+from . import beam
+from .config import Catenary, DynamicSettings
+from .errors import ConvergenceError
+from .pantograph import Pantograph
+from .section import Section
+from .static import CW, DOFS_PER_NODE, MW, StaticModel, assemble_matrix, element_dofs
+
+BANDWIDTH = 5  # interleaved [cw_w, cw_θ, mw_w, mw_θ]: farthest coupling is node n ↔ θ of node n+1
+NEWMARK_BETA, NEWMARK_GAMMA = 0.25, 0.5
+
+
+def rayleigh_coefficients(ratio: float, f1_hz: float, f2_hz: float) -> tuple[float, float]:
+    """(α [1/s], β [s]) giving damping ratio ``ratio`` at f1 and f2."""
+    w1, w2 = 2 * np.pi * f1_hz, 2 * np.pi * f2_hz
+    return 2 * ratio * w1 * w2 / (w1 + w2), 2 * ratio / (w1 + w2)
+
+
+def _banded(matrix: sp.spmatrix) -> np.ndarray:
+    """Upper banded storage of a symmetric matrix for :func:`scipy.linalg.cholesky_banded`."""
+    m = matrix.tocsr()
+    n = m.shape[0]
+    ab = np.zeros((BANDWIDTH + 1, n))
+    for d in range(BANDWIDTH + 1):
+        ab[BANDWIDTH - d, d:] = m.diagonal(d)
+    outside = sp.triu(m, BANDWIDTH + 1)
+    if outside.nnz and np.any(outside.data != 0):
+        raise ValueError("matrix bandwidth exceeds the interleaved layout (non-vertical droppers?)")
+    return ab
+
+
+class CatenaryDynamics:
+    """Assembled linear operators of a section for dynamics and quasi-statics.
+
+    Parameters
+    ----------
+    section : Section
+    catenary : Catenary
+        Uses ``catenary.steady_arm`` and ``catenary.dynamics``.
+    damping : bool
+        False gives the undamped system (energy checks).
+    """
+
+    def __init__(self, section: Section, catenary: Catenary, *, damping: bool = True):
+        self.section = section
+        self.catenary = catenary
+        self.settings: DynamicSettings = catenary.dynamics
+        static = StaticModel(section, catenary)
+        self.static_model = static
+        self.mesh = mesh = static.mesh
+        gravity_state = static.solve()
+        self.gravity_state = gravity_state
+        n = static.n_dofs
+        masts = mesh.mast_nodes
+        sa = catenary.steady_arm
+        mw_fixed = DOFS_PER_NODE * masts + MW
+        cw_mast = DOFS_PER_NODE * masts + CW
+        fixed = mw_fixed if sa.stiffness_n_m is not None else np.concatenate([mw_fixed, cw_mast])
+        fixed_values = gravity_state.dofs[fixed]
+        free_mask = np.ones(n, dtype=bool)
+        free_mask[fixed] = False
+        self.free = free = np.flatnonzero(free_mask)
+        self.n_free = free.size
+        index = -np.ones(n, dtype=int)
+        index[free] = np.arange(free.size)
+        self.index = index  # global DOF → free-DOF position (−1 if fixed)
+
+        # Stiffness with every dropper taut, plus steady-arm springs.
+        k_d, f_d = static.dropper_matrices(np.ones(section.dropper_lengths_m.size, dtype=bool))
+        k0 = (static.k_wires + k_d).tolil()
+        f = static.f_gravity + f_d
+        if sa.stiffness_n_m is not None:
+            for dof, reaction in zip(cw_mast, gravity_state.cw_reaction_n):
+                k0[dof, dof] += sa.stiffness_n_m
+                f[dof] += reaction + sa.stiffness_n_m * gravity_state.dofs[dof]
+        k0 = k0.tocsr()
+        self.k0 = k0[free][:, free].tocsr()
+        self.f_const = f[free] - k0[free][:, fixed] @ fixed_values
+
+        # Mass: consistent for the wires, lumped for clamps, droppers and steady arms.
+        h = mesh.element_length_m
+        mass = (assemble_matrix(element_dofs(mesh, CW), beam.consistent_mass(h, catenary.contact.mass_per_length_kg_m), n)
+                + assemble_matrix(element_dofs(mesh, MW), beam.consistent_mass(h, catenary.messenger.mass_per_length_kg_m), n))
+        lumped = np.zeros(n)
+        d = catenary.droppers
+        half = 0.5 * d.mass_per_length_kg_m * section.dropper_lengths_m
+        np.add.at(lumped, static.dropper_cw_dof, d.clamp_mass_contact_kg + half)
+        np.add.at(lumped, static.dropper_mw_dof, d.clamp_mass_messenger_kg + half)
+        if sa.stiffness_n_m is not None:
+            lumped[cw_mast] += sa.mass_kg
+        mass = (mass + sp.diags(lumped)).tocsr()
+        self.mass = mass[free][:, free].tocsr()
+        if damping:
+            alpha, beta = rayleigh_coefficients(self.settings.damping_ratio, *self.settings.damping_frequencies_hz)
+        else:
+            alpha = beta = 0.0
+        self.rayleigh = (alpha, beta)
+        self.damping = (alpha * self.mass + beta * self.k0).tocsr()
+
+        self.dropper_cw = index[static.dropper_cw_dof]
+        self.dropper_mw = index[static.dropper_mw_dof]
+        self.dropper_k = static.dropper_stiffness_n_m
+        self.dropper_l = section.dropper_lengths_m
+        self.fixed, self.fixed_values = fixed, fixed_values
+
+        # Contact interpolation: exact shape functions, their basis inverse cached per element.
+        cw = catenary.contact
+        self._lam = np.sqrt(section.contact_tension_n / cw.bending_stiffness_n_m2) if cw.bending_stiffness_n_m2 else None
+        self._element_free_dofs = index[element_dofs(mesh, CW)]
+        if self._lam is not None:
+            lengths, inverse = np.unique(np.round(h, 12), return_inverse=True)
+            c, _ = beam._exact_basis_matrix(lengths, self._lam)
+            self._basis_inverse = np.linalg.inv(c)[inverse]
+
+    def full_dofs(self, u_free: np.ndarray) -> np.ndarray:
+        """All nodal DOFs (fixed ones at their prescribed values) from free ones."""
+        u = np.zeros(DOFS_PER_NODE * self.mesh.n_nodes)
+        u[self.fixed] = self.fixed_values
+        u[self.free] = u_free
+        return u
+
+    def contact_vector(self, chainage_m: float) -> tuple[np.ndarray, np.ndarray]:
+        """Free-DOF indices and exact shape-function values of the CW at ``chainage_m``."""
+        x_nodes = self.mesh.x_m
+        if not x_nodes[0] - 1e-9 <= chainage_m <= x_nodes[-1] + 1e-9:
+            raise ValueError(f"chainage {chainage_m} m outside the section [{x_nodes[0]}, {x_nodes[-1]}] m")
+        e = min(max(int(np.searchsorted(x_nodes, chainage_m, side="right")) - 1, 0), x_nodes.size - 2)
+        h = x_nodes[e + 1] - x_nodes[e]
+        x = min(max(chainage_m - x_nodes[e], 0.0), h)
+        if self._lam is None:
+            n = beam.shape_functions(np.array(x / h), np.array(h))
+        else:
+            lam = self._lam
+            n = np.array([1.0, x, np.exp(-lam * x), np.exp(-lam * (h - x))]) @ self._basis_inverse[e]
+        dofs = self._element_free_dofs[e]
+        keep = dofs >= 0
+        return dofs[keep], n[keep]
+
+
+
+class PseudoForceSolver:
+    """Solves ``K u = r + Σ_slack g_j λ_j + N_p F_c`` with tension-only droppers and
+    penalty contact, for a fixed symmetric positive-definite ``K`` (banded Cholesky)."""
+
+    def __init__(self, ops: CatenaryDynamics, k_eff: sp.spmatrix, max_iterations: int = 50):
+        self.ops = ops
+        self.factor = cholesky_banded(_banded(k_eff), lower=False)
+        n_d = ops.dropper_k.size
+        g = np.zeros((ops.n_free, n_d))
+        cols = np.arange(n_d)
+        g[ops.dropper_mw, cols] = 1.0
+        g[ops.dropper_cw, cols] = -1.0
+        self.z = self.solve(g)
+        self.d = self.z[ops.dropper_mw] - self.z[ops.dropper_cw]  # g_iᵀ K⁻¹ g_j
+        self.max_iterations = max_iterations
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        x, info = dpbtrs(self.factor, rhs, lower=0)
+        if info != 0:
+            raise ValueError(f"banded back-substitution failed (LAPACK info {info})")
+        return x
+
+    def equilibrium(self, rhs: np.ndarray, slack: np.ndarray, contact: "ContactState | None" = None):
+        """Solve with pseudo-forces; returns (u, dropper forces, slack mask, contact force, in_contact).
+
+        ``contact`` carries the contact point (dofs, shape values), the penalty stiffness and
+        the head's predicted height and compliance (``head_free_m``, ``head_flex_m_n``); with
+        ``head_flex_m_n = None`` the contact force is prescribed as ``force_n`` instead.
+        """
+        ops = self.ops
+        k, length = ops.dropper_k, ops.dropper_l
+        if contact is not None:
+            both = np.zeros((ops.n_free, 2))
+            both[:, 0] = rhs
+            both[contact.dofs, 1] = contact.shape
+            both = self.solve(both)
+            u_star, zp = both[:, 0], both[:, 1]
+            zp_g = zp[ops.dropper_mw] - zp[ops.dropper_cw]
+            w_star = contact.shape @ u_star[contact.dofs]
+            cz = contact.shape @ zp[contact.dofs]
+        else:
+            u_star = self.solve(rhs)
+            zp_g = np.zeros(k.size)
+        e_star = u_star[ops.dropper_mw] - u_star[ops.dropper_cw] - length
+        slack = slack.copy()
+        touching = contact is not None and (contact.head_flex_m_n is None or contact.touching)
+        for _ in range(self.max_iterations):
+            s_idx = np.flatnonzero(slack)
+            ns = s_idx.size
+            a = np.zeros((ns + 1, ns + 1))
+            b = np.zeros(ns + 1)
+            a[:ns, :ns] = np.eye(ns) - k[s_idx, None] * self.d[np.ix_(s_idx, s_idx)]
+            b[:ns] = k[s_idx] * e_star[s_idx]
+            if touching and contact.head_flex_m_n is not None:
+                a[:ns, ns] = -k[s_idx] * zp_g[s_idx]
+                a[ns, :ns] = contact.stiffness_n_m * zp_g[s_idx]
+                a[ns, ns] = 1.0 - contact.stiffness_n_m * contact.head_flex_m_n + contact.stiffness_n_m * cz
+                b[ns] = contact.stiffness_n_m * (contact.head_free_m - w_star)
+                x = np.linalg.solve(a, b)
+            else:
+                force_c = contact.force_n if (touching and contact.head_flex_m_n is None) else 0.0
+                b[:ns] += k[s_idx] * zp_g[s_idx] * force_c
+                x = np.append(np.linalg.solve(a[:ns, :ns], b[:ns]) if ns else np.zeros(0), force_c)
+            lam, f_c = x[:ns], x[ns]
+            elongation = e_star + self.d[:, s_idx] @ lam + zp_g * f_c
+            new_slack = k * elongation < 0.0
+            new_touching = touching
+            if contact is not None and contact.head_flex_m_n is not None:
+                w = w_star + zp_g[s_idx] @ lam + (cz * f_c if contact is not None else 0.0)
+                gap = contact.head_free_m + contact.head_flex_m_n * f_c - w
+                new_touching = (f_c > 0.0) if touching else (gap > 0.0)
+            if np.array_equal(new_slack, slack) and new_touching == touching:
+                break
+            slack, touching = new_slack, new_touching
+        else:
+            raise ConvergenceError(f"dropper/contact states did not settle in {self.max_iterations} iterations")
+        u = u_star + self.z[:, s_idx] @ lam
+        if contact is not None:
+            u = u + zp * f_c
+        forces = np.where(slack, 0.0, k * elongation)
+        return u, forces, slack, f_c, touching
+
+
+@dataclass
+class ContactState:
+    """Contact point data for :meth:`PseudoForceSolver.equilibrium`."""
+
+    dofs: np.ndarray
+    shape: np.ndarray
+    stiffness_n_m: float = 0.0
+    head_free_m: float = 0.0
+    head_flex_m_n: float | None = None
+    touching: bool = True
+    force_n: float = 0.0
+
+
+def quasi_static_heights(ops: CatenaryDynamics, chainage_m: np.ndarray, force_n: float) -> np.ndarray:
+    """CW height under an upward point force ``force_n`` [N] at each chainage, each a static
+    solve of the same catenary (dropper slackening and steady arms included) [m]."""
+    solver = PseudoForceSolver(ops, ops.k0)
+    slack = np.zeros(ops.dropper_k.size, dtype=bool)
+    out = np.empty(len(chainage_m))
+    for i, s in enumerate(np.asarray(chainage_m, dtype=float)):
+        dofs, shape = ops.contact_vector(s)
+        contact = ContactState(dofs, shape, force_n=force_n)
+        u, _, slack, _, _ = solver.equilibrium(ops.f_const, slack, contact)
+        out[i] = shape @ u[dofs]
+    return out
+
+
+def _initial_equilibrium(ops: CatenaryDynamics, solver: "PseudoForceSolver", pantograph: Pantograph,
+                         start_m: float, f_mean: float, reference_m: float, k_c: float):
+    """Static equilibrium of catenary and pantograph with the head at ``start_m``.
+
+    The contact force ``f`` solves ``reference + flex·(f_mean − f) = w(start; f) + f/k_c`` (head
+    height from the pantograph side equals the CW height plus the penalty penetration); with
+    a constant-force pantograph (flex = ∞), ``f = f_mean``. Secant iteration on ``f``: the
+    catenary response is piecewise linear in ``f``.
+    Returns (u, slack droppers, contact force, head height).
+    """
+    dofs, shape = ops.contact_vector(start_m)
+    no_slack = np.zeros(ops.dropper_k.size, dtype=bool)
+
+    def cw_height(force):
+        u, _, slack, _, _ = solver.equilibrium(ops.f_const, no_slack, ContactState(dofs, shape, force_n=force))
+        return shape @ u[dofs], u, slack
+
+    flex = pantograph.head_flexibility_m_n
+    if np.isinf(flex):
+        w, u, slack = cw_height(f_mean)
+        return u, slack, f_mean, w + f_mean / k_c
+
+    def residual(force):
+        w, u, slack = cw_height(force)
+        return reference_m + flex * (f_mean - force) - w - force / k_c, u, slack
+
+    f_a, f_b = f_mean, 0.5 * f_mean
+    r_a, u, slack = residual(f_a)
+    for _ in range(20):
+        r_b, u, slack = residual(f_b)
+        if abs(r_b) < 1e-12:
+            break
+        f_a, f_b, r_a = f_b, f_b - r_b * (f_b - f_a) / (r_b - r_a), r_b
+    else:
+        raise ConvergenceError("initial pantograph–catenary equilibrium did not converge")
+    w = shape @ u[dofs]
+    return u, slack, f_b, w + f_b / k_c
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """Time histories of a pantograph run, one row per time step.
+
+    Attributes
+    ----------
+    time_s, chainage_m : numpy.ndarray
+        Time and contact-point chainage.
+    contact_force_n : numpy.ndarray
+        Penalty contact force [N] (0 when contact is lost).
+    cw_height_m : numpy.ndarray
+        CW height at the contact point [m] (what a recording car measures).
+    head_height_m : numpy.ndarray
+        Pantograph head height [m].
+    support_uplift_m : numpy.ndarray
+        CW height at each steady arm minus its static height, shape (n_steps, n_masts) [m].
+    slack_droppers : numpy.ndarray
+        Number of slack droppers at each step.
+    """
+
+    time_s: np.ndarray
+    chainage_m: np.ndarray
+    contact_force_n: np.ndarray
+    cw_height_m: np.ndarray
+    head_height_m: np.ndarray
+    support_uplift_m: np.ndarray
+    slack_droppers: np.ndarray
+
+
+def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: float, *,
+                   start_m: float | None = None, end_m: float | None = None,
+                   time_step_s: float | None = None) -> RunResult:
+    """Run ``pantograph`` at constant ``speed_m_s`` over the section from ``start_m`` to ``end_m``.
+
+    The run starts from the static equilibrium of catenary and pantograph with the mean
+    uplift force at ``start_m`` (default: the first mast); ``time_step_s`` defaults to the
+    catenary's dynamics settings.
+    """
+    settings = ops.settings
+    dt = settings.time_step_s if time_step_s is None else time_step_s
+    masts = ops.section.mast_chainage_m
+    start = masts[0] if start_m is None else start_m
+    end = masts[-1] if end_m is None else end_m
+    n_steps = int(np.floor((end - start) / (speed_m_s * dt))) + 1
+    beta, gamma = NEWMARK_BETA, NEWMARK_GAMMA
+    a0, a1 = 1 / (beta * dt**2), gamma / (beta * dt)
+    a2, a3 = 1 / (beta * dt), 1 / (2 * beta) - 1
+    a4, a5 = gamma / beta - 1, dt / 2 * (gamma / beta - 2)
+    k_c = settings.contact_stiffness_n_m
+    f_mean = pantograph.mean_force_n(speed_m_s)
+
+    # Initial static equilibrium of catenary and pantograph at the start.
+    static_solver = PseudoForceSolver(ops, ops.k0)
+    reference = float(np.mean(ops.gravity_state.cw_height_at(np.linspace(start, end, 201))))
+    u, slack, f0, head0 = _initial_equilibrium(ops, static_solver, pantograph, start, f_mean, reference, k_c)
+    dofs, shape = ops.contact_vector(start)
+    v = np.zeros_like(u)
+    acc = np.zeros_like(u)
+
+    m_p, c_p, k_p = pantograph.matrices()
+    k_eff_p = k_p + a0 * m_p + a1 * c_p
+    e_h = np.zeros(pantograph.n_masses)
+    e_h[0] = 1.0
+    k_eff_p_inv = np.linalg.inv(k_eff_p)
+    p_flex = -k_eff_p_inv[:, 0]  # response to a unit downward force on the head
+    # Pantograph DOFs: displacements from the reference configuration (head at ``reference``,
+    # springs carrying the mean force); static start: K y = e_h (f_mean − f0).
+    if np.isinf(pantograph.head_flexibility_m_n):
+        y = np.full(pantograph.n_masses, head0 - reference)  # constant force: rigid shift
+    else:
+        y = np.linalg.solve(k_p, e_h * (f_mean - f0))
+    yv, ya = np.zeros_like(y), np.zeros_like(y)
+
+    solver = PseudoForceSolver(ops, ops.k0 + a0 * ops.mass + a1 * ops.damping)
+    mast_dofs = ops.index[DOFS_PER_NODE * ops.mesh.mast_nodes + CW]
+    free_masts = mast_dofs >= 0
+    static_mast = ops.gravity_state.cw_height_m[ops.mesh.mast_nodes]
+    out = {k: np.empty(n_steps) for k in ("t", "x", "f", "w", "head", "slack")}
+    uplift = np.zeros((n_steps, masts.size))
+    touching = True
+    f_c = f0
+    for step in range(n_steps):
+        t = step * dt
+        x = start + speed_m_s * t
+        if step > 0:
+            rhs = ops.f_const + ops.mass @ (a0 * u + a2 * v + a3 * acc) + ops.damping @ (a1 * u + a4 * v + a5 * acc)
+            rhs_p = e_h * f_mean + m_p @ (a0 * y + a2 * yv + a3 * ya) + c_p @ (a1 * y + a4 * yv + a5 * ya)
+            y_star = k_eff_p_inv @ rhs_p
+            dofs, shape = ops.contact_vector(x)
+            contact = ContactState(dofs, shape, k_c, reference + y_star[0], p_flex[0], touching)
+            u_new, _, slack, f_c, touching = solver.equilibrium(rhs, slack, contact)
+            y_new = y_star + p_flex * f_c
+            acc_new = a0 * (u_new - u) - a2 * v - a3 * acc
+            v = v + dt * ((1 - gamma) * acc + gamma * acc_new)
+            u, acc = u_new, acc_new
+            ya_new = a0 * (y_new - y) - a2 * yv - a3 * ya
+            yv = yv + dt * ((1 - gamma) * ya + gamma * ya_new)
+            y, ya = y_new, ya_new
+            f_c = f_c if touching else 0.0
+        out["t"][step] = t
+        out["x"][step] = x
+        out["f"][step] = f_c
+        out["w"][step] = shape @ u[dofs]
+        out["head"][step] = reference + y[0]
+        out["slack"][step] = slack.sum()
+        uplift[step, free_masts] = u[mast_dofs[free_masts]] - static_mast[free_masts]
+    return RunResult(time_s=out["t"], chainage_m=out["x"], contact_force_n=out["f"], cw_height_m=out["w"],
+                     head_height_m=out["head"], support_uplift_m=uplift, slack_droppers=out["slack"].astype(int))
+
+
+def free_vibration(ops: CatenaryDynamics, initial_velocity: np.ndarray, duration_s: float,
+                   time_step_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Free vibration about the static equilibrium (no pantograph) from an initial velocity
+    field on the free DOFs [m/s, rad/s]. Returns (time [s], total energy [J]): kinetic plus
+    the strain and gravity energy of the all-taut linear system measured from equilibrium,
+    ½ vᵀMv + ½ (u − u₀)ᵀK₀(u − u₀), exact while no dropper slackens."""
+    dt = time_step_s
+    beta, gamma = NEWMARK_BETA, NEWMARK_GAMMA
+    a0, a1 = 1 / (beta * dt**2), gamma / (beta * dt)
+    a2, a3 = 1 / (beta * dt), 1 / (2 * beta) - 1
+    a4, a5 = gamma / beta - 1, dt / 2 * (gamma / beta - 2)
+    static_solver = PseudoForceSolver(ops, ops.k0)
+    no_slack = np.zeros(ops.dropper_k.size, dtype=bool)
+    u0, _, slack, _, _ = static_solver.equilibrium(ops.f_const, no_slack)
+    solver = PseudoForceSolver(ops, ops.k0 + a0 * ops.mass + a1 * ops.damping)
+    u, v = u0.copy(), np.asarray(initial_velocity, dtype=float).copy()
+    acc = sp.linalg.spsolve(ops.mass.tocsc(), -(ops.damping @ v))  # K₀(u − u₀) = 0 at start
+    n_steps = int(round(duration_s / dt)) + 1
+    energy = np.empty(n_steps)
+    for step in range(n_steps):
+        if step:
+            rhs = ops.f_const + ops.mass @ (a0 * u + a2 * v + a3 * acc) + ops.damping @ (a1 * u + a4 * v + a5 * acc)
+            u_new, _, slack, _, _ = solver.equilibrium(rhs, slack)
+            acc_new = a0 * (u_new - u) - a2 * v - a3 * acc
+            v = v + dt * ((1 - gamma) * acc + gamma * acc_new)
+            u, acc = u_new, acc_new
+        d = u - u0
+        energy[step] = 0.5 * v @ (ops.mass @ v) + 0.5 * d @ (ops.k0 @ d)
+    return np.arange(n_steps) * dt, energy
+
+
+def natural_frequencies_hz(ops: CatenaryDynamics, n_modes: int = 6) -> np.ndarray:
+    """Lowest natural frequencies of the linear all-taut catenary [Hz]."""
+    from scipy.sparse.linalg import eigsh
+    values = eigsh(ops.k0.tocsc(), k=n_modes, M=ops.mass.tocsc(), sigma=0.0, which="LM",
+                   return_eigenvectors=False)
+    return np.sort(np.sqrt(np.abs(values))) / (2 * np.pi)

@@ -1,0 +1,395 @@
+"""Maximum-likelihood identification of the input laws: s_opt = argmax J(s) (paper eq. 6).
+
+Parameterisation
+----------------
+Around the starting laws s0 (means μ0, standard deviations σ0), each free mean and σ gets a
+dimensionless coordinate of order one:
+
+    μ = μ0 + σ0 θ_μ        (i.e. μ = μ0 (1 + δ) with δ = θ_μ σ0/μ0: the shift in starting σ)
+    σ = σ0 exp(θ_σ)
+
+Which means are free is configurable; the default frees the T_MW and ΔH means and fixes the
+dropper means at their start (the nominal table), as the paper does to avoid the T_MW /
+dropper-length trade-off, and frees every σ (13 parameters for 9 droppers). The coordinates are
+kept in a box (:class:`ParameterBox`: means within ±15 %, σ within [σ0/50, 20 σ0] and σ/μ ≤ 0.1).
+
+Optimisers
+----------
+``"nelder-mead"`` (the paper's; SciPy, adaptive coefficients, bounded) and ``"bobyqa"``
+(OpenTURNS ``NLopt("LN_BOBYQA")``, bounded quadratic-model trust region). Both minimise −J; an
+infeasible point (J = −inf) is given a large finite penalty. Every evaluation (s, J) is recorded.
+
+Standard errors
+---------------
+From the observed information: the Hessian H of J in θ at θ_opt by central finite differences
+(step ``hessian_step`` in θ, default 0.01: the standard errors change by < 1 % between 0.005
+and 0.02; 2p + 2p(p−1) + 1 evaluations), covariance ``C = (−H)⁻¹`` and the
+delta method back to (μ, σ): ``se(μ) = σ0 √C_μμ``, ``se(σ) = σ̂ √C_σσ``. They are conditional on
+the design (the Monte Carlo error of a finite N is not included) and are NaN when −H is not
+positive definite.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import openturns as ot
+from scipy.optimize import minimize
+
+from ..config import Catenary, SpanType
+from ..fast import FastSpanModel
+from .design import (MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, default_inputs, design_dimension,
+                     draw_unit_design)
+from .likelihood import Likelihood
+
+__all__ = ["METHODS", "IdentificationResult", "ParameterBox", "ParameterEstimate", "identify",
+           "make_likelihood", "messenger_tension_bounds_n", "observed_information"]
+
+METHODS = ("nelder-mead", "bobyqa")
+DEFAULT_FREE_MEANS = (MESSENGER_TENSION, SYSTEM_HEIGHT)
+#: Objective value (−J) given to the optimisers where J = −inf.
+_PENALTY = 1e10
+
+
+@dataclass(frozen=True)
+class ParameterBox:
+    """Admissible hyper-parameters around the start s0.
+
+    Attributes
+    ----------
+    mean_range : float
+        Means within ``μ0 (1 ± mean_range)``.
+    sigma_ratio_range : (float, float)
+        σ within ``σ0 × [lo, hi]``.
+    max_cv : float
+        σ ≤ ``max_cv × μ0 (1 − mean_range)`` (the Cornish–Fisher fast path covers σ/μ ≤ 0.1).
+    """
+
+    mean_range: float = 0.15
+    sigma_ratio_range: tuple[float, float] = (0.02, 20.0)
+    max_cv: float = 0.1
+
+    def mean_bounds(self, start: RandomInput) -> tuple[float, float]:
+        return start.mean * (1.0 - self.mean_range), start.mean * (1.0 + self.mean_range)
+
+    def sigma_bounds(self, start: RandomInput) -> tuple[float, float]:
+        lo = start.sigma * self.sigma_ratio_range[0]
+        hi = min(start.sigma * self.sigma_ratio_range[1], self.max_cv * self.mean_bounds(start)[0])
+        if not lo < start.sigma <= hi:
+            raise ValueError(f"{start.name}: starting sigma {start.sigma} outside the box [{lo}, {hi}]")
+        return lo, hi
+
+
+def messenger_tension_bounds_n(start: tuple[RandomInput, ...], box: ParameterBox = ParameterBox(), *,
+                               eps: float = 1e-9, margin: float = 0.05) -> tuple[float, float]:
+    """T_MW range [N] a fast model needs to serve every law of the box.
+
+    The extreme quantiles ``F⁻¹(eps)``, ``F⁻¹(1 − eps)`` at the corners of the (μ, σ) box of
+    T_MW, widened by ``margin`` (room for the Hessian steps).
+    """
+    t = next(s for s in start if s.name == MESSENGER_TENSION)
+    corners = [RandomInput(t.name, m, s) for m in box.mean_bounds(t) for s in box.sigma_bounds(t)]
+    lo = min(float(c.quantile(eps)) for c in corners)
+    hi = max(float(c.quantile(1.0 - eps)) for c in corners)
+    return lo * (1.0 - margin), hi * (1.0 + margin)
+
+
+def make_likelihood(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, *,
+                    start: tuple[RandomInput, ...] | None = None, n_samples: int = 10_000,
+                    design_method: str = "lhs", seed: int = 0, system_height_mode: str = "shared",
+                    box: ParameterBox = ParameterBox(), degree: int = 14, eps: float = 1e-9,
+                    **likelihood_options) -> Likelihood:
+    """Build the fast model (T_MW range from the box), draw the design once, return J.
+
+    ``likelihood_options`` go to :class:`~.likelihood.Likelihood` (``estimator``, ...). The
+    Chebyshev degree 14 keeps the fast model within ~1e-7 m over the wide T_MW range.
+    """
+    start = default_inputs(span_type, catenary) if start is None else start
+    bounds = messenger_tension_bounds_n(start, box, eps=eps)
+    model = FastSpanModel(span_type, catenary, messenger_tension_bounds_n=bounds, degree=degree)
+    design = draw_unit_design(n_samples, design_dimension(span_type.n_droppers, system_height_mode),
+                              method=design_method, seed=seed, eps=eps)
+    return Likelihood(model, design, data_w_m, system_height_mode=system_height_mode, **likelihood_options)
+
+
+@dataclass(frozen=True)
+class ParameterEstimate:
+    """One row of the s_opt table (units of the parameter name); se = standard error."""
+
+    parameter: str
+    mu: float
+    sigma: float
+    mu_se: float
+    sigma_se: float
+    mu_fixed: bool
+
+
+@dataclass(frozen=True)
+class IdentificationResult:
+    """Outcome of :func:`identify`.
+
+    Attributes
+    ----------
+    estimates : tuple of ParameterEstimate
+        s_opt with standard errors, one row per random input (design order).
+    j_opt : float
+        J(s_opt).
+    n_evaluations : int
+        Evaluations of J by the optimiser (the Hessian's are in ``n_hessian_evaluations``).
+    trace_means, trace_sigmas : numpy.ndarray, shape (n_evaluations, d)
+        s at every optimiser evaluation.
+    trace_j : numpy.ndarray, shape (n_evaluations,)
+        J at every optimiser evaluation (−inf where infeasible).
+    time_s : float
+        Wall time of the optimisation and the standard errors [s].
+    method : str
+    converged : bool
+        The optimiser's own convergence flag.
+    message : str
+    free_parameters : tuple of str
+        Names ``"<input>.mu"`` / ``"<input>.sigma"`` of the coordinates θ.
+    theta_opt : numpy.ndarray
+    theta_covariance : numpy.ndarray
+        ``(−H)⁻¹`` in θ (NaN if −H is not positive definite or not computed).
+    n_hessian_evaluations : int
+    slack_fraction : float
+        Slack fraction of the model sample at s_opt.
+    """
+
+    estimates: tuple[ParameterEstimate, ...]
+    j_opt: float
+    n_evaluations: int
+    trace_means: np.ndarray
+    trace_sigmas: np.ndarray
+    trace_j: np.ndarray
+    time_s: float
+    method: str
+    converged: bool
+    message: str
+    free_parameters: tuple[str, ...]
+    theta_opt: np.ndarray
+    theta_covariance: np.ndarray
+    n_hessian_evaluations: int
+    slack_fraction: float
+
+    @property
+    def means(self) -> np.ndarray:
+        return np.array([e.mu for e in self.estimates])
+
+    @property
+    def sigmas(self) -> np.ndarray:
+        return np.array([e.sigma for e in self.estimates])
+
+    def inputs(self) -> tuple[RandomInput, ...]:
+        """s_opt as random inputs."""
+        return tuple(RandomInput(e.parameter, e.mu, e.sigma) for e in self.estimates)
+
+    def table_rows(self) -> list[dict]:
+        """s_opt table: parameter, mu, sigma, mu_se, sigma_se, mu_fixed."""
+        return [dict(parameter=e.parameter, mu=e.mu, sigma=e.sigma, mu_se=e.mu_se,
+                     sigma_se=e.sigma_se, mu_fixed=e.mu_fixed) for e in self.estimates]
+
+    def trace_rows(self) -> list[dict]:
+        """J trace: evaluation, j and ``<input>_mu``, ``<input>_sigma`` per evaluation."""
+        names = [e.parameter for e in self.estimates]
+        rows = []
+        for i, j in enumerate(self.trace_j):
+            row = {"evaluation": i + 1, "j": float(j)}
+            for k, name in enumerate(names):
+                row[f"{name}_mu"] = float(self.trace_means[i, k])
+                row[f"{name}_sigma"] = float(self.trace_sigmas[i, k])
+            rows.append(row)
+        return rows
+
+
+@dataclass
+class _Problem:
+    """Map θ ↔ (means, sigmas) and record the J trace."""
+
+    likelihood: Likelihood
+    start: tuple[RandomInput, ...]
+    free_mean_idx: np.ndarray
+    free_sigma_idx: np.ndarray
+    trace: list = field(default_factory=list)
+    recording: bool = True
+
+    def __post_init__(self):
+        self.mu0 = np.array([s.mean for s in self.start])
+        self.sd0 = np.array([s.sigma for s in self.start])
+
+    def laws(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        nm = self.free_mean_idx.size
+        means, sigmas = self.mu0.copy(), self.sd0.copy()
+        means[self.free_mean_idx] += self.sd0[self.free_mean_idx] * theta[:nm]
+        sigmas[self.free_sigma_idx] *= np.exp(theta[nm:])
+        return means, sigmas
+
+    def j(self, theta: np.ndarray) -> float:
+        theta = np.array(theta, dtype=float)
+        means, sigmas = self.laws(theta)
+        value = self.likelihood(means, sigmas)
+        if self.recording:
+            self.trace.append((theta, means, sigmas, value))
+        return value
+
+    def objective(self, theta) -> float:
+        value = self.j(theta)
+        return -value if np.isfinite(value) else _PENALTY
+
+
+def observed_information(j, theta: np.ndarray, step: float) -> np.ndarray:
+    """−H: minus the central finite-difference Hessian of ``j`` at ``theta``.
+
+    Diagonal: ``(J(θ+h e_i) − 2J(θ) + J(θ−h e_i)) / h²``; off-diagonal:
+    ``(J(++) − J(+−) − J(−+) + J(−−)) / (4h²)``.
+    """
+    p = theta.size
+    e = np.eye(p) * step
+    j0 = j(theta)
+    h = np.empty((p, p))
+    for i in range(p):
+        h[i, i] = (j(theta + e[i]) - 2.0 * j0 + j(theta - e[i])) / step**2
+        for k in range(i):
+            h[i, k] = h[k, i] = (j(theta + e[i] + e[k]) - j(theta + e[i] - e[k])
+                                 - j(theta - e[i] + e[k]) + j(theta - e[i] - e[k])) / (4.0 * step**2)
+    return -h
+
+
+def _bounds(problem: _Problem, box: ParameterBox) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = [], []
+    for i in problem.free_mean_idx:
+        a, b = box.mean_bounds(problem.start[i])
+        lo.append((a - problem.mu0[i]) / problem.sd0[i])
+        hi.append((b - problem.mu0[i]) / problem.sd0[i])
+    for i in problem.free_sigma_idx:
+        a, b = box.sigma_bounds(problem.start[i])
+        lo.append(np.log(a / problem.sd0[i]))
+        hi.append(np.log(b / problem.sd0[i]))
+    return np.array(lo), np.array(hi)
+
+
+def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
+             free_means: tuple[str, ...] = DEFAULT_FREE_MEANS, free_sigmas: tuple[str, ...] | None = None,
+             method: str = "nelder-mead", box: ParameterBox = ParameterBox(), initial_step: float = 0.5,
+             max_evaluations: int = 6000, xtol: float | None = None, ftol: float | None = None,
+             standard_errors: bool = True, hessian_step: float = 0.01) -> IdentificationResult:
+    """Maximise J over the free hyper-parameters, from the laws ``start``.
+
+    Parameters
+    ----------
+    likelihood : Likelihood
+        J(s) (fixed design, data, estimator).
+    start : tuple of RandomInput
+        s0 in design order (droppers, T_MW, ΔH); fixed means stay at their start.
+    free_means : tuple of str
+        Inputs whose mean is identified (default T_MW and ΔH).
+    free_sigmas : tuple of str, optional
+        Inputs whose σ is identified (default: all).
+    method : {"nelder-mead", "bobyqa"}
+    box : ParameterBox
+        Admissible region (see :class:`ParameterBox`).
+    initial_step : float
+        Initial simplex / trust-region size in θ.
+    max_evaluations : int
+        Budget of J evaluations of the optimiser.
+    xtol : float, optional
+        Convergence tolerance on θ (absolute); default 1e-3 for Nelder–Mead (with ``ftol``,
+        both must hold) and 1e-5 for BOBYQA (whose looser stops end short of the maximum).
+    ftol : float, optional
+        Convergence tolerance on J (absolute); default 1e-4 for Nelder–Mead, unused (0) for
+        BOBYQA, where NLopt's relative criterion is set to ``ftol / |J(s0)|``.
+    standard_errors : bool
+        Compute the observed-information standard errors (module docstring).
+    hessian_step : float
+        Finite-difference step in θ.
+
+    Returns
+    -------
+    IdentificationResult
+    """
+    if method not in METHODS:
+        raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
+    if xtol is None:
+        xtol = 1e-3 if method == "nelder-mead" else 1e-5
+    if ftol is None:
+        ftol = 1e-4 if method == "nelder-mead" else 0.0
+    names = [s.name for s in start]
+    unknown = (set(free_means) | set(free_sigmas or ())) - set(names)
+    if unknown:
+        raise ValueError(f"unknown inputs {sorted(unknown)}; inputs are {names}")
+    free_sigmas = tuple(names) if free_sigmas is None else free_sigmas
+    problem = _Problem(likelihood, tuple(start),
+                       np.array([i for i, n in enumerate(names) if n in free_means], dtype=int),
+                       np.array([i for i, n in enumerate(names) if n in free_sigmas], dtype=int))
+    lo, hi = _bounds(problem, box)
+    theta0 = np.clip(np.zeros(lo.size), lo, hi)
+    t_start = time.perf_counter()
+    if method == "nelder-mead":
+        steps = np.where(theta0 + initial_step <= hi, initial_step, -initial_step)
+        simplex = np.vstack([theta0, theta0 + np.diag(steps)])
+        res = minimize(problem.objective, theta0, method="Nelder-Mead", bounds=list(zip(lo, hi)),
+                       options=dict(initial_simplex=simplex, xatol=xtol, fatol=ftol,
+                                    maxfev=max_evaluations, adaptive=True))
+        converged, message = bool(res.success), str(res.message)
+    else:
+        fn = ot.PythonFunction(lo.size, 1, lambda x: [problem.objective(np.array(x))])
+        ot_problem = ot.OptimizationProblem(fn)
+        ot_problem.setBounds(ot.Interval(lo.tolist(), hi.tolist()))
+        solver = ot.NLopt(ot_problem, "LN_BOBYQA")
+        solver.setStartingPoint(theta0.tolist())
+        solver.setInitialStep([initial_step] * lo.size)
+        solver.setMaximumCallsNumber(max_evaluations)
+        solver.setMaximumAbsoluteError(xtol)
+        solver.setMaximumRelativeError(0.0)
+        j_start = likelihood(*problem.laws(theta0))
+        solver.setMaximumResidualError(ftol / max(1.0, abs(j_start)) if np.isfinite(j_start) else 0.0)
+        solver.run()
+        out = solver.getResult()
+        converged = len(problem.trace) < max_evaluations
+        message = str(out.getStatusMessage()) or ("converged" if converged else "evaluation budget reached")
+    # s_opt: the best evaluated point (what both optimisers return, up to ties).
+    trace = list(problem.trace)
+    n_eval = len(trace)
+    best = int(np.argmax([t[3] for t in trace]))
+    theta_opt, means_opt, sigmas_opt, j_opt = trace[best]
+    problem.recording = False
+    p = theta_opt.size
+    cov = np.full((p, p), np.nan)
+    n_hess = 0
+    if standard_errors:
+        counter = [0]
+
+        def j_counted(theta):
+            counter[0] += 1
+            return problem.j(theta)
+
+        info = observed_information(j_counted, theta_opt, hessian_step)
+        n_hess = counter[0]
+        if np.all(np.isfinite(info)):
+            try:
+                np.linalg.cholesky(info)
+                cov = np.linalg.inv(info)
+            except np.linalg.LinAlgError:
+                pass
+    elapsed = time.perf_counter() - t_start
+    se = np.sqrt(np.diag(cov))
+    nm = problem.free_mean_idx.size
+    mu_se = np.zeros(len(start))
+    sigma_se = np.zeros(len(start))
+    mu_se[problem.free_mean_idx] = problem.sd0[problem.free_mean_idx] * se[:nm]
+    sigma_se[problem.free_sigma_idx] = sigmas_opt[problem.free_sigma_idx] * se[nm:]
+    free_mean_set = set(problem.free_mean_idx.tolist())
+    estimates = tuple(ParameterEstimate(parameter=names[i], mu=float(means_opt[i]), sigma=float(sigmas_opt[i]),
+                                        mu_se=float(mu_se[i]), sigma_se=float(sigma_se[i]),
+                                        mu_fixed=i not in free_mean_set) for i in range(len(start)))
+    free_names = tuple([f"{names[i]}.mu" for i in problem.free_mean_idx]
+                       + [f"{names[i]}.sigma" for i in problem.free_sigma_idx])
+    slack = likelihood.evaluate(means_opt, sigmas_opt).slack_fraction
+    return IdentificationResult(
+        estimates=estimates, j_opt=float(j_opt), n_evaluations=n_eval,
+        trace_means=np.array([t[1] for t in trace]), trace_sigmas=np.array([t[2] for t in trace]),
+        trace_j=np.array([t[3] for t in trace]), time_s=elapsed, method=method, converged=converged,
+        message=message, free_parameters=free_names, theta_opt=np.asarray(theta_opt, dtype=float),
+        theta_covariance=cov, n_hessian_evaluations=n_hess, slack_fraction=float(slack))

@@ -1,0 +1,353 @@
+"""Log-likelihood J(s) of measured deflections under the model's law of W (paper §3, eq. 5).
+
+For hyper-parameters s (mean and σ of every random input), the fixed design (common random
+numbers, :mod:`.design`) is mapped to N input vectors, the fast static model gives N deflection
+vectors W (n droppers), the law of W is estimated from them and
+
+    J(s) = Σ_k ln p_W(W_k^exp; s)
+
+over the K measured spans. Same design ⇒ same J, bit for bit.
+
+Estimators
+----------
+``"gaussian"`` (default, the paper's choice): multivariate normal with the sample mean and the
+(unbiased, weighted) sample covariance of W; ``ln p`` through its Cholesky factor L,
+``ln p(x) = −½‖L⁻¹(x − m)‖² − Σ ln L_ii − (n/2) ln 2π``. The sample is streamed in blocks:
+memory does not grow with N.
+
+``"kernel"``: Gaussian kernel smoothing in whitened coordinates ``y = L⁻¹(w − m)`` (L from the
+sample covariance), isotropic kernel of bandwidth h — Scott's rule ``h = n_eff^(−1/(n+4))``
+(default; the same as ``scipy.stats.gaussian_kde``) or Silverman's
+``h = (n_eff (n+2)/4)^(−1/(n+4))`` — i.e. bandwidth matrix ``h² Σ̂`` in W. ``ln p`` is a
+logsumexp over the model sample (no underflow far in the tails), accumulated block by block,
+plus the log-Jacobian ``−Σ ln L_ii`` of the whitening. It needs the whole W sample in memory
+(N × n) and O(K N n) time. J values of the two estimators are different functions: compare J
+only within one estimator.
+
+Slack droppers
+--------------
+The fast model is exact only with every dropper taut; a sample with a dropper in compression
+has no valid W. Such samples are removed from the model sample, i.e. the model law is that of W
+*given every dropper taut* (synthetic data are drawn the same way). To keep J smooth in s (for
+the optimiser and the finite-difference Hessian), the removal is a probit taper in the smallest
+dropper force ``F_min``: weight ``Φ(F_min / τ)`` with ``τ = slack_taper_n`` (default 2 N; τ = 0
+gives the hard indicator ``F_min > 0``). The mean and covariance are weighted accordingly and the
+slack fraction ``1 − Σ weight / N`` is reported; if it exceeds ``max_slack_fraction`` (default
+0.5) — the model sample no longer represents the span — J = −inf. J is also −inf when a T_MW
+sample falls outside the fast model's tension range or the covariance is not positive definite.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import special
+from scipy.linalg import solve_triangular
+
+from ..fast import FastSpanModel
+from .design import UnitDesign, design_dimension, map_inputs
+
+__all__ = ["BANDWIDTH_RULES", "ESTIMATORS", "GaussianFit", "Likelihood", "LikelihoodValue",
+           "ModelSample", "fit_gaussian", "gaussian_log_density", "kernel_bandwidth",
+           "kernel_log_density"]
+
+ESTIMATORS = ("gaussian", "kernel")
+BANDWIDTH_RULES = ("scott", "silverman")
+_LOG_2PI = float(np.log(2.0 * np.pi))
+#: Bytes of one block of the data × model-sample distance matrix (kernel estimator).
+_KERNEL_BLOCK_BYTES = 16 * 2**20
+
+
+@dataclass(frozen=True)
+class GaussianFit:
+    """Mean and Cholesky factor of a (weighted) sample covariance.
+
+    Attributes
+    ----------
+    mean : numpy.ndarray, shape (n,)
+    chol : numpy.ndarray, shape (n, n)
+        Lower-triangular L with ``L Lᵀ`` the covariance.
+    n_effective : float
+        Kish effective sample size ``(Σw)² / Σw²``.
+    """
+
+    mean: np.ndarray
+    chol: np.ndarray
+    n_effective: float
+
+    @property
+    def log_det_chol(self) -> float:
+        """``Σ ln L_ii`` = ½ ln det Σ̂."""
+        return float(np.sum(np.log(np.diag(self.chol))))
+
+
+def _fit_from_moments(sum_w: float, sum_w2: float, s1: np.ndarray, s2: np.ndarray,
+                      shift: np.ndarray) -> GaussianFit:
+    """Gaussian fit from shifted weighted moments ``s1 = Σ w (x − c)``, ``s2 = Σ w (x − c)(x − c)ᵀ``.
+
+    The covariance uses the reliability-weight correction ``Σw − Σw²/Σw`` (N − 1 for unit
+    weights). Raises ``numpy.linalg.LinAlgError`` if it is not positive definite.
+    """
+    d = s1 / sum_w
+    cov = (s2 - sum_w * np.outer(d, d)) / (sum_w - sum_w2 / sum_w)
+    cov = 0.5 * (cov + cov.T)
+    return GaussianFit(mean=shift + d, chol=np.linalg.cholesky(cov), n_effective=sum_w**2 / sum_w2)
+
+
+def fit_gaussian(sample: np.ndarray, weights: np.ndarray | None = None) -> GaussianFit:
+    """Weighted mean and covariance (Cholesky) of ``sample`` (N, n); unit weights by default."""
+    x = np.asarray(sample, dtype=float)
+    w = np.ones(x.shape[0]) if weights is None else np.asarray(weights, dtype=float)
+    shift = x[0].copy()
+    c = x - shift
+    cw = c * w[:, None]
+    return _fit_from_moments(float(w.sum()), float(np.dot(w, w)), cw.sum(axis=0), c.T @ cw, shift)
+
+
+def gaussian_log_density(x: np.ndarray, fit: GaussianFit) -> np.ndarray:
+    """``ln p(x)`` of the normal law ``fit`` at the rows of ``x`` (K, n)."""
+    x = np.atleast_2d(np.asarray(x, dtype=float))
+    r = solve_triangular(fit.chol, (x - fit.mean).T, lower=True, check_finite=False)
+    n = x.shape[1]
+    return -0.5 * np.einsum("ij,ij->j", r, r) - fit.log_det_chol - 0.5 * n * _LOG_2PI
+
+
+def kernel_bandwidth(n_effective: float, dimension: int, rule: str = "scott") -> float:
+    """Kernel bandwidth in whitened coordinates (Scott or Silverman rule of thumb)."""
+    if rule == "scott":
+        return float(n_effective ** (-1.0 / (dimension + 4)))
+    if rule == "silverman":
+        return float((n_effective * (dimension + 2) / 4.0) ** (-1.0 / (dimension + 4)))
+    raise ValueError(f"bandwidth: expected one of {BANDWIDTH_RULES}, got {rule!r}")
+
+
+def kernel_log_density(x: np.ndarray, sample: np.ndarray, weights: np.ndarray | None = None,
+                       bandwidth: str = "scott") -> np.ndarray:
+    """``ln p(x)`` of the Gaussian kernel smoothing of ``sample`` at the rows of ``x``.
+
+    Parameters
+    ----------
+    x : numpy.ndarray, shape (K, n)
+        Evaluation points.
+    sample : numpy.ndarray, shape (N, n)
+        Model sample.
+    weights : numpy.ndarray, shape (N,), optional
+        Non-negative sample weights (default 1).
+    bandwidth : {"scott", "silverman"}
+        Rule for h in whitened coordinates (see the module docstring).
+
+    Returns
+    -------
+    numpy.ndarray, shape (K,)
+        Computed as a running logsumexp over blocks of the sample (memory O(K × block)).
+    """
+    x = np.atleast_2d(np.asarray(x, dtype=float))
+    sample = np.asarray(sample, dtype=float)
+    w = np.ones(sample.shape[0]) if weights is None else np.asarray(weights, dtype=float)
+    keep = w > 0
+    if not np.all(keep):
+        sample, w = sample[keep], w[keep]
+    fit = fit_gaussian(sample, w)
+    n = sample.shape[1]
+    h = kernel_bandwidth(fit.n_effective, n, bandwidth)
+    # Whitened and divided by h, so that the kernel is exp(−½‖a − b‖²).
+    y = solve_triangular(fit.chol, (sample - fit.mean).T, lower=True, check_finite=False).T / h
+    yx = solve_triangular(fit.chol, (x - fit.mean).T, lower=True, check_finite=False).T / h
+    log_w = np.log(w)
+    sq_x = np.einsum("ij,ij->i", yx, yx)
+    running_max = np.full(x.shape[0], -np.inf)
+    running_sum = np.zeros(x.shape[0])
+    block = max(1024, _KERNEL_BLOCK_BYTES // (8 * x.shape[0]))
+    for start in range(0, y.shape[0], block):
+        yb = y[start:start + block]
+        e = yx @ yb.T
+        e -= 0.5 * sq_x[:, None]
+        e -= 0.5 * np.einsum("ij,ij->i", yb, yb)[None, :]
+        e += log_w[None, start:start + block]
+        block_max = e.max(axis=1)
+        new_max = np.maximum(running_max, block_max)
+        running_sum *= np.exp(running_max - new_max)
+        e -= new_max[:, None]
+        np.exp(e, out=e)
+        running_sum += e.sum(axis=1)
+        running_max = new_max
+    log_kernel_sum = running_max + np.log(running_sum)
+    return (log_kernel_sum - np.log(w.sum()) - n * np.log(h) - 0.5 * n * _LOG_2PI
+            - fit.log_det_chol)
+
+
+@dataclass(frozen=True)
+class LikelihoodValue:
+    """One evaluation of J.
+
+    Attributes
+    ----------
+    j : float
+        J(s) (−inf when the model sample is unusable, see ``status``).
+    slack_fraction : float
+        Weighted fraction of the model sample removed for slack droppers.
+    n_effective : float
+        Kish effective size of the retained model sample (0 if not computed).
+    status : str
+        ``"ok"``, ``"slack"``, ``"tension_out_of_bounds"`` or ``"singular"``.
+    """
+
+    j: float
+    slack_fraction: float
+    n_effective: float
+    status: str
+
+
+@dataclass(frozen=True)
+class ModelSample:
+    """Model sample of W under given laws: deflections, taper weights and dropper forces."""
+
+    w_m: np.ndarray
+    weight: np.ndarray
+    min_dropper_force_n: np.ndarray
+
+
+class Likelihood:
+    """J(s) for one span type, one fixed design and one set of measured deflections.
+
+    Parameters
+    ----------
+    model : FastSpanModel
+        Fast static model of the span type; its T_MW range must cover the T_MW samples of every
+        s to be evaluated (else J = −inf).
+    design : UnitDesign
+        Unit-cube design with ``design_dimension(n, system_height_mode)`` columns.
+    data_w_m : array_like, shape (K, n)
+        Measured CW deflections from the chord at the droppers [m].
+    estimator : {"gaussian", "kernel"}
+    system_height_mode : {"shared", "independent"}
+        How ΔH_left and ΔH_right follow the ΔH law (see :mod:`.design`).
+    slack_taper_n : float
+        Width τ of the slack taper [N] (0: hard removal).
+    max_slack_fraction : float
+        J = −inf above this slack fraction.
+    bandwidth : {"scott", "silverman"}
+        Kernel bandwidth rule (kernel estimator only).
+    chunk_size : int
+        Design rows mapped and evaluated at once.
+
+    Notes
+    -----
+    ``means`` and ``sigmas`` given to :meth:`evaluate` are arrays over the inputs in design
+    order: droppers 1…n, T_MW [N], ΔH [m].
+    """
+
+    def __init__(self, model: FastSpanModel, design: UnitDesign, data_w_m: np.ndarray, *,
+                 estimator: str = "gaussian", system_height_mode: str = "shared",
+                 slack_taper_n: float = 2.0, max_slack_fraction: float = 0.5,
+                 bandwidth: str = "scott", chunk_size: int = 16384):
+        n = model.n_droppers
+        if design.dimension != design_dimension(n, system_height_mode):
+            raise ValueError(f"design: expected {design_dimension(n, system_height_mode)} columns "
+                             f"(system_height_mode={system_height_mode!r}), got {design.dimension}")
+        data = np.atleast_2d(np.asarray(data_w_m, dtype=float))
+        if data.ndim != 2 or data.shape[1] != n or not np.all(np.isfinite(data)):
+            raise ValueError(f"data_w_m: expected finite values of shape (K, {n}), got {data.shape}")
+        if estimator not in ESTIMATORS:
+            raise ValueError(f"estimator: expected one of {ESTIMATORS}, got {estimator!r}")
+        if bandwidth not in BANDWIDTH_RULES:
+            raise ValueError(f"bandwidth: expected one of {BANDWIDTH_RULES}, got {bandwidth!r}")
+        if slack_taper_n < 0 or not 0 < max_slack_fraction <= 1:
+            raise ValueError("need slack_taper_n ≥ 0 and 0 < max_slack_fraction ≤ 1")
+        self.model = model
+        self.design = design
+        self.data_w_m = data
+        self.estimator = estimator
+        self.system_height_mode = system_height_mode
+        self.slack_taper_n = float(slack_taper_n)
+        self.max_slack_fraction = float(max_slack_fraction)
+        self.bandwidth = bandwidth
+        self.chunk_size = int(chunk_size)
+        self._shift = data.mean(axis=0)
+
+    @property
+    def n_samples(self) -> int:
+        return self.design.n_samples
+
+    def _weights(self, min_force: np.ndarray) -> np.ndarray:
+        if self.slack_taper_n == 0.0:
+            return (min_force > 0.0).astype(float)
+        return special.ndtr(min_force / self.slack_taper_n)
+
+    def _chunks(self, means, sigmas):
+        """Yield (W, weights, F_min) per block of the design, or None if T_MW is out of range."""
+        lo, hi = self.model.messenger_tension_bounds_n
+        z = self.design.z
+        for start in range(0, z.shape[0], self.chunk_size):
+            x = map_inputs(z[start:start + self.chunk_size], means, sigmas, self.system_height_mode)
+            t = x.messenger_tension_n
+            if t.min() < lo or t.max() > hi:
+                yield None
+                return
+            res = self.model.evaluate(x.dropper_lengths_m, t, x.system_height_left_m,
+                                      x.system_height_right_m, chunk_size=self.chunk_size)
+            f_min = res.dropper_force_n.min(axis=1)
+            yield res.w_m, self._weights(f_min), f_min
+
+    def model_sample(self, means: np.ndarray, sigmas: np.ndarray) -> ModelSample:
+        """The whole model sample of W under the laws (means, sigmas).
+
+        Raises
+        ------
+        ValueError
+            If a T_MW sample lies outside the fast model's tension range.
+        """
+        parts = list(self._chunks(means, sigmas))
+        if parts and parts[-1] is None:
+            raise ValueError("messenger_tension_n: samples outside the fast model's tension bounds "
+                             f"{self.model.messenger_tension_bounds_n} N")
+        w, weight, f_min = (np.concatenate(p) for p in zip(*parts))
+        return ModelSample(w_m=w, weight=weight, min_dropper_force_n=f_min)
+
+    def evaluate(self, means: np.ndarray, sigmas: np.ndarray) -> LikelihoodValue:
+        """J and diagnostics at the laws (means, sigmas) (arrays in design order)."""
+        means = np.asarray(means, dtype=float)
+        sigmas = np.asarray(sigmas, dtype=float)
+        if self.estimator == "kernel":
+            try:
+                sample = self.model_sample(means, sigmas)
+            except ValueError:
+                return LikelihoodValue(-np.inf, np.nan, 0.0, "tension_out_of_bounds")
+            slack = 1.0 - float(sample.weight.sum()) / self.n_samples
+            if slack > self.max_slack_fraction:
+                return LikelihoodValue(-np.inf, slack, 0.0, "slack")
+            try:
+                logp = kernel_log_density(self.data_w_m, sample.w_m, sample.weight, self.bandwidth)
+                w = sample.weight
+                n_eff = float(w.sum() ** 2 / np.dot(w, w))
+            except np.linalg.LinAlgError:
+                return LikelihoodValue(-np.inf, slack, 0.0, "singular")
+            return LikelihoodValue(float(np.sum(logp)), slack, n_eff, "ok")
+        n = self.model.n_droppers
+        sum_w = sum_w2 = 0.0
+        s1 = np.zeros(n)
+        s2 = np.zeros((n, n))
+        for part in self._chunks(means, sigmas):
+            if part is None:
+                return LikelihoodValue(-np.inf, np.nan, 0.0, "tension_out_of_bounds")
+            w, weight, _ = part
+            c = w - self._shift
+            cw = c * weight[:, None]
+            sum_w += float(weight.sum())
+            sum_w2 += float(np.dot(weight, weight))
+            s1 += cw.sum(axis=0)
+            s2 += c.T @ cw
+        slack = 1.0 - sum_w / self.n_samples
+        if slack > self.max_slack_fraction:
+            return LikelihoodValue(-np.inf, slack, 0.0, "slack")
+        try:
+            fit = _fit_from_moments(sum_w, sum_w2, s1, s2, self._shift)
+        except np.linalg.LinAlgError:
+            return LikelihoodValue(-np.inf, slack, 0.0, "singular")
+        j = float(np.sum(gaussian_log_density(self.data_w_m, fit)))
+        return LikelihoodValue(j, slack, fit.n_effective, "ok")
+
+    def __call__(self, means: np.ndarray, sigmas: np.ndarray) -> float:
+        """J(s) (see :meth:`evaluate`)."""
+        return self.evaluate(means, sigmas).j

@@ -1,0 +1,81 @@
+"""The measuring pass (SPEC §4.5): what a recording car reports over a section.
+
+The measuring pantograph runs at constant speed and pushes the contact wire up; the car
+records the height of the contact point, which the paper calls the *dynamic sag*. Two modes:
+
+``dynamic``
+    the time-domain pantograph run of :mod:`catenary.dynamics`;
+``quasi_static``
+    one static solve per recorded position with the mean uplift force as a point load on the
+    same catenary (steady arms and dropper slackening included): the speed → 0 limit.
+
+Heights are reported at a fixed chainage step, as a recording car samples by distance.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import Catenary
+from .dynamics import CatenaryDynamics, quasi_static_heights, run_pantograph
+from .pantograph import Pantograph
+from .section import Section
+
+MODES = ("dynamic", "quasi_static")
+
+
+@dataclass(frozen=True)
+class MeasuredHeights:
+    """Contact-point height along a section.
+
+    Attributes
+    ----------
+    chainage_m : numpy.ndarray
+        Chainage from the section start [m].
+    height_m : numpy.ndarray
+        CW height at the contact point [m].
+    contact_force_n : numpy.ndarray
+        Contact force at those points [N] (the mean force in quasi-static mode).
+    """
+
+    chainage_m: np.ndarray
+    height_m: np.ndarray
+    contact_force_n: np.ndarray
+
+
+def measuring_pass(section: Section, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,
+                   sampling_step_m: float, mode: str = "dynamic", time_step_s: float | None = None,
+                   ops: CatenaryDynamics | None = None) -> MeasuredHeights:
+    """Contact-point heights of ``pantograph`` over ``section`` every ``sampling_step_m``.
+
+    Parameters
+    ----------
+    section, catenary : the line and its data
+    pantograph : Pantograph
+        The measuring pantograph; its mean force at ``speed_m_s`` is the measuring force.
+    speed_m_s : float
+        Train speed [m/s].
+    sampling_step_m : float
+        Recording step along the line [m].
+    mode : {"dynamic", "quasi_static"}
+    time_step_s : float, optional
+        Integration step of the dynamic mode (default: the catenary's setting).
+    ops : CatenaryDynamics, optional
+        Pre-assembled operators of ``section`` (re-used across calls).
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
+    if sampling_step_m <= 0:
+        raise ValueError(f"sampling_step_m: expected > 0, got {sampling_step_m}")
+    ops = ops or CatenaryDynamics(section, catenary)
+    masts = section.mast_chainage_m
+    chainage = np.arange(masts[0], masts[-1] + 1e-9, sampling_step_m)
+    force = pantograph.mean_force_n(speed_m_s)
+    if mode == "quasi_static":
+        heights = quasi_static_heights(ops, chainage, force)
+        return MeasuredHeights(chainage, heights, np.full(chainage.size, force))
+    run = run_pantograph(ops, pantograph, speed_m_s, time_step_s=time_step_s)
+    return MeasuredHeights(chainage, np.interp(chainage, run.chainage_m, run.cw_height_m),
+                           np.interp(chainage, run.chainage_m, run.contact_force_n))
