@@ -15,3 +15,10 @@ class ConfigError(CatenaryError, ValueError):
 
 class ConvergenceError(CatenaryError, RuntimeError):
     """A nonlinear solve did not converge; no result is returned in that case."""
+
+
+class InputError(CatenaryError, ValueError):
+    """An input data file (recording, masts, truth) is malformed.
+
+    The message names the file, the row or column, and what was expected.
+    """
