@@ -141,12 +141,14 @@ class CatenaryDynamics:
 
         # Contact interpolation: exact shape functions, their basis inverse cached per element.
         cw = catenary.contact
-        self._lam = np.sqrt(section.contact_tension_n / cw.bending_stiffness_n_m2) if cw.bending_stiffness_n_m2 else None
         self._element_free_dofs = index[element_dofs(mesh, CW)]
-        if self._lam is not None:
-            lengths, inverse = np.unique(np.round(h, 12), return_inverse=True)
-            c, _ = beam._exact_basis_matrix(lengths, self._lam)
-            self._basis_inverse = np.linalg.inv(c)[inverse]
+        self._lam = None
+        if cw.bending_stiffness_n_m2:
+            self._lam = np.sqrt(section.contact_tension_by_span_n[mesh.element_span] / cw.bending_stiffness_n_m2)
+            pairs = np.column_stack([np.round(h, 12), self._lam])
+            unique, inverse = np.unique(pairs, axis=0, return_inverse=True)
+            c, _ = beam._exact_basis_matrix(unique[:, 0], unique[:, 1])
+            self._basis_inverse = np.linalg.inv(c)[inverse.ravel()]
 
     def full_dofs(self, u_free: np.ndarray) -> np.ndarray:
         """All nodal DOFs (fixed ones at their prescribed values) from free ones."""
@@ -166,7 +168,7 @@ class CatenaryDynamics:
         if self._lam is None:
             n = beam.shape_functions(np.array(x / h), np.array(h))
         else:
-            lam = self._lam
+            lam = self._lam[e]
             n = np.array([1.0, x, np.exp(-lam * x), np.exp(-lam * (h - x))]) @ self._basis_inverse[e]
         dofs = self._element_free_dofs[e]
         keep = dofs >= 0

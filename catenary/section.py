@@ -35,8 +35,9 @@ class Section:
         Contact-wire height at each steady arm [m], shape (n_spans + 1,).
     system_heights_m : numpy.ndarray
         System height ΔH at each mast (MW above CW) [m], shape (n_spans + 1,).
-    contact_tension_n, messenger_tension_n : float
-        T_CW and T_MW [N], constant over the section (tensioning weights at its ends).
+    contact_tension_n, messenger_tension_n : float or numpy.ndarray
+        T_CW and T_MW [N]: one value for the section (tensioning weights at its ends), or one
+        per span (shape (n_spans,)) to model tension differences between spans.
     """
 
     span_lengths_m: np.ndarray
@@ -45,8 +46,8 @@ class Section:
     dropper_lengths_m: np.ndarray
     cw_support_heights_m: np.ndarray
     system_heights_m: np.ndarray
-    contact_tension_n: float
-    messenger_tension_n: float
+    contact_tension_n: float | np.ndarray
+    messenger_tension_n: float | np.ndarray
 
     def __post_init__(self) -> None:
         for name in ("span_lengths_m", "dropper_x_m", "dropper_lengths_m",
@@ -65,9 +66,16 @@ class Section:
             raise ConfigError(f"system_heights_m: expected values > 0 [m], got {self.system_heights_m}")
         if np.any(~np.isfinite(self.dropper_lengths_m)) or np.any(self.dropper_lengths_m <= 0):
             raise ConfigError(f"dropper_lengths_m: expected values > 0 [m], got {self.dropper_lengths_m}")
-        if self.contact_tension_n <= 0 or self.messenger_tension_n <= 0:
-            raise ConfigError("contact_tension_n, messenger_tension_n: expected tensions > 0 [N], got "
-                              f"{self.contact_tension_n}, {self.messenger_tension_n}")
+        for name in ("contact_tension_n", "messenger_tension_n"):
+            value = np.asarray(getattr(self, name), dtype=float)
+            if value.ndim == 0:
+                object.__setattr__(self, name, float(value))
+            elif value.shape != (n_spans,):
+                raise ConfigError(f"{name}: expected one tension or {n_spans} (one per span), got shape {value.shape}")
+            else:
+                object.__setattr__(self, name, value)
+            if np.any(~np.isfinite(value)) or np.any(value <= 0):
+                raise ConfigError(f"{name}: expected tensions > 0 [N], got {value}")
         if n_d:
             if np.any(np.diff(self.dropper_span) < 0) or self.dropper_span[0] < 0 or self.dropper_span[-1] >= n_spans:
                 raise ConfigError("dropper_span: expected non-decreasing span indices in [0, n_spans)")
@@ -83,6 +91,16 @@ class Section:
     @property
     def n_spans(self) -> int:
         return int(self.span_lengths_m.size)
+
+    @property
+    def contact_tension_by_span_n(self) -> np.ndarray:
+        """T_CW of each span [N], shape (n_spans,)."""
+        return np.broadcast_to(np.asarray(self.contact_tension_n, dtype=float), (self.n_spans,))
+
+    @property
+    def messenger_tension_by_span_n(self) -> np.ndarray:
+        """T_MW of each span [N], shape (n_spans,)."""
+        return np.broadcast_to(np.asarray(self.messenger_tension_n, dtype=float), (self.n_spans,))
 
     @property
     def mast_chainage_m(self) -> np.ndarray:
@@ -117,8 +135,8 @@ class Section:
         """A copy with other wire tensions [N]."""
         return _replace(
             self,
-            contact_tension_n=self.contact_tension_n if contact_tension_n is None else float(contact_tension_n),
-            messenger_tension_n=self.messenger_tension_n if messenger_tension_n is None else float(messenger_tension_n),
+            contact_tension_n=self.contact_tension_n if contact_tension_n is None else contact_tension_n,
+            messenger_tension_n=self.messenger_tension_n if messenger_tension_n is None else messenger_tension_n,
         )
 
 
@@ -185,11 +203,14 @@ class Mesh:
         Node index of each mast.
     dropper_nodes : numpy.ndarray
         Node index of each dropper (the same node on both wires: droppers are vertical).
+    element_span : numpy.ndarray
+        Span index of each element.
     """
 
     x_m: np.ndarray
     mast_nodes: np.ndarray
     dropper_nodes: np.ndarray
+    element_span: np.ndarray
 
     @property
     def n_nodes(self) -> int:
@@ -223,4 +244,7 @@ def build_mesh(section: Section, max_element_length_m: float) -> Mesh:
         idx = np.searchsorted(x, np.round(s, 9) - 1e-9)
         assert np.allclose(x[idx], s, atol=1e-8)
         return idx
-    return Mesh(x_m=x, mast_nodes=nodes(section.mast_chainage_m), dropper_nodes=nodes(section.dropper_chainage_m))
+    mid = 0.5 * (x[1:] + x[:-1])
+    span = np.clip(np.searchsorted(section.mast_chainage_m, mid) - 1, 0, section.n_spans - 1)
+    return Mesh(x_m=x, mast_nodes=nodes(section.mast_chainage_m), dropper_nodes=nodes(section.dropper_chainage_m),
+                element_span=span)

@@ -118,15 +118,22 @@ def assemble_matrix(dofs: np.ndarray, blocks: np.ndarray, n_dofs: int) -> sp.csr
     return sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(n_dofs, n_dofs))
 
 
-def wire_stiffness(mesh: Mesh, wire: Wire, tension_n: float, wire_offset: int) -> sp.csr_matrix:
+def _unique_elements(mesh: Mesh, tension_by_span_n: np.ndarray):
+    """Distinct (length, tension) pairs of the elements: (lengths, tensions, inverse index)."""
+    pairs = np.column_stack([np.round(mesh.element_length_m, 12), tension_by_span_n[mesh.element_span]])
+    unique, inverse = np.unique(pairs, axis=0, return_inverse=True)
+    return unique[:, 0], unique[:, 1], inverse.ravel()
+
+
+def wire_stiffness(mesh: Mesh, wire: Wire, tension_by_span_n: np.ndarray, wire_offset: int) -> sp.csr_matrix:
     """Bending plus tension stiffness of one wire, in the section's global numbering."""
-    h, inverse = np.unique(np.round(mesh.element_length_m, 12), return_inverse=True)
-    k = beam.tensioned_stiffness(h, wire.bending_stiffness_n_m2, tension_n)[inverse]
+    h, tension, inverse = _unique_elements(mesh, tension_by_span_n)
+    k = beam.tensioned_stiffness(h, wire.bending_stiffness_n_m2, tension)[inverse]
     return assemble_matrix(element_dofs(mesh, wire_offset), k, DOFS_PER_NODE * mesh.n_nodes)
 
 
 def cw_point_load_vector(mesh: Mesh, chainage_m: np.ndarray, force_n: np.ndarray,
-                         contact: Wire, contact_tension_n: float) -> np.ndarray:
+                         contact: Wire, contact_tension_by_span_n: np.ndarray) -> np.ndarray:
     """Work-equivalent nodal loads of vertical point forces on the CW (upward positive)
     [N, N·m], with the exact shape functions so that nodal results stay exact."""
     f = np.zeros(DOFS_PER_NODE * mesh.n_nodes)
@@ -134,7 +141,7 @@ def cw_point_load_vector(mesh: Mesh, chainage_m: np.ndarray, force_n: np.ndarray
     force = np.broadcast_to(np.asarray(force_n, dtype=float), s.shape)
     e, xi = mesh.locate(s)
     n = beam.tensioned_shape_functions(xi, mesh.element_length_m[e], contact.bending_stiffness_n_m2,
-                                       contact_tension_n)
+                                       contact_tension_by_span_n[mesh.element_span[e]])
     np.add.at(f, element_dofs(mesh, CW)[e], force[:, None] * n)
     return f
 
@@ -162,8 +169,8 @@ class StaticModel:
         self.mesh = mesh = build_mesh(section, catenary.max_element_length_m)
         n = DOFS_PER_NODE * mesh.n_nodes
         self.n_dofs = n
-        self.k_wires = (wire_stiffness(mesh, catenary.contact, section.contact_tension_n, CW)
-                        + wire_stiffness(mesh, catenary.messenger, section.messenger_tension_n, MW))
+        self.k_wires = (wire_stiffness(mesh, catenary.contact, section.contact_tension_by_span_n, CW)
+                        + wire_stiffness(mesh, catenary.messenger, section.messenger_tension_by_span_n, MW))
         self.f_gravity = self._gravity_loads()
         masts = mesh.mast_nodes
         self.fixed = np.concatenate([DOFS_PER_NODE * masts + CW, DOFS_PER_NODE * masts + MW])
@@ -179,9 +186,9 @@ class StaticModel:
         cat, mesh, sec = self.catenary, self.mesh, self.section
         g = cat.gravity_m_s2
         f = np.zeros(DOFS_PER_NODE * mesh.n_nodes)
-        h, inverse = np.unique(np.round(mesh.element_length_m, 12), return_inverse=True)
-        for wire, offset, tension in ((cat.contact, CW, sec.contact_tension_n),
-                                      (cat.messenger, MW, sec.messenger_tension_n)):
+        for wire, offset, by_span in ((cat.contact, CW, sec.contact_tension_by_span_n),
+                                      (cat.messenger, MW, sec.messenger_tension_by_span_n)):
+            h, tension, inverse = _unique_elements(mesh, by_span)
             q = -wire.mass_per_length_kg_m * g
             loads = beam.tensioned_uniform_load(h, q, wire.bending_stiffness_n_m2, tension)[inverse]
             np.add.at(f, element_dofs(mesh, offset), loads)
@@ -229,7 +236,7 @@ class StaticModel:
         f_ext = self.f_gravity.copy()
         if cw_point_loads is not None:
             f_ext += cw_point_load_vector(self.mesh, *cw_point_loads, self.catenary.contact,
-                                          self.section.contact_tension_n)
+                                          self.section.contact_tension_by_span_n)
         n_d = self.section.dropper_lengths_m.size
         taut = np.ones(n_d, dtype=bool) if initial_taut is None else np.asarray(initial_taut, dtype=bool).copy()
         seen = set()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from catenary.dropper_table import nominal_dropper_lengths
-from catenary.errors import ConvergenceError
+from catenary.errors import ConfigError, ConvergenceError
 from catenary.section import Section, single_span, uniform_section
 from catenary.static import StaticModel, solve_static
 
@@ -132,3 +132,22 @@ def test_section_with_spans_of_their_own(catenary, n2):
     sol = solve_static(mixed, catenary)
     np.testing.assert_allclose(sol.cw_height_m[sol.mesh.mast_nodes], [5.08, 5.10, 5.05], atol=1e-12)
     np.testing.assert_allclose(sol.mw_height_m[sol.mesh.mast_nodes], [6.48, 6.49, 6.46], atol=1e-12)
+
+
+def test_per_span_tensions(catenary, n2):
+    # One tension per span: equal values reproduce the scalar case exactly; raising T_MW in
+    # the middle span lifts that span (string: sag ∝ 1/T) far more than its neighbours, and
+    # the supports still carry the whole weight.
+    lengths = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
+    section = uniform_section(n2, 3, lengths)
+    same = section.with_tensions(messenger_tension_n=np.full(3, section.messenger_tension_n))
+    np.testing.assert_allclose(solve_static(same, catenary).dofs, solve_static(section, catenary).dofs, atol=1e-12)
+    raised = section.with_tensions(messenger_tension_n=section.messenger_tension_n * np.array([1.0, 1.1, 1.0]))
+    model = StaticModel(raised, catenary)
+    sol = model.solve()
+    dw = (sol.dropper_deflection_m() - solve_static(section, catenary).dropper_deflection_m()).reshape(3, 9)
+    assert dw[1, 4] > 10e-3                      # ≈ +20 mm at mid-span (46.9 mm per +20 % on one span)
+    assert np.max(np.abs(dw[[0, 2]])) < 0.1 * dw[1, 4]
+    assert sol.cw_reaction_n.sum() + sol.mw_reaction_n.sum() == pytest.approx(model.total_weight_n(), rel=1e-9)
+    with pytest.raises(ConfigError, match="one per span"):
+        section.with_tensions(messenger_tension_n=np.ones(2) * 20000.0)
