@@ -46,8 +46,8 @@ class MeasuredHeights:
 
 
 def measuring_pass(section: Section, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,
-                   sampling_step_m: float, mode: str = "dynamic", time_step_s: float | None = None,
-                   ops: CatenaryDynamics | None = None) -> MeasuredHeights:
+                   sampling_step_m: float | None = None, mode: str = "dynamic", time_step_s: float | None = None,
+                   ops: CatenaryDynamics | None = None, chainage_m: np.ndarray | None = None) -> MeasuredHeights:
     """Contact-point heights of ``pantograph`` over ``section`` every ``sampling_step_m``.
 
     Parameters
@@ -57,8 +57,10 @@ def measuring_pass(section: Section, catenary: Catenary, pantograph: Pantograph,
         The measuring pantograph; its mean force at ``speed_m_s`` is the measuring force.
     speed_m_s : float
         Train speed [m/s].
-    sampling_step_m : float
-        Recording step along the line [m].
+    sampling_step_m : float, optional
+        Recording step along the line [m] (a grid from the first to the last mast).
+    chainage_m : array_like, optional
+        Explicit chainages to report instead of the grid [m].
     mode : {"dynamic", "quasi_static"}
     time_step_s : float, optional
         Integration step of the dynamic mode (default: the catenary's setting).
@@ -67,11 +69,14 @@ def measuring_pass(section: Section, catenary: Catenary, pantograph: Pantograph,
     """
     if mode not in MODES:
         raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
-    if sampling_step_m <= 0:
-        raise ValueError(f"sampling_step_m: expected > 0, got {sampling_step_m}")
-    ops = ops or CatenaryDynamics(section, catenary)
     masts = section.mast_chainage_m
-    chainage = np.arange(masts[0], masts[-1] + 1e-9, sampling_step_m)
+    if chainage_m is not None:
+        chainage = np.asarray(chainage_m, dtype=float)
+    elif sampling_step_m is not None and sampling_step_m > 0:
+        chainage = np.arange(masts[0], masts[-1] + 1e-9, sampling_step_m)
+    else:
+        raise ValueError(f"sampling_step_m: expected > 0 (or explicit chainage_m), got {sampling_step_m}")
+    ops = ops or CatenaryDynamics(section, catenary)
     force = pantograph.mean_force_n(speed_m_s)
     if mode == "quasi_static":
         heights = quasi_static_heights(ops, chainage, force)

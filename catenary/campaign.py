@@ -1,0 +1,153 @@
+"""The virtual measurement campaign (SPEC §5.2): simulate the recording car over a drawn line.
+
+For each section of a :class:`~catenary.truth.Line`, the section model (its true dropper
+lengths, support heights, system heights and per-span tensions) is solved statically (the
+true static W) and run over by the measuring pantograph at the true measuring force (the true
+dynamic W and the clean recording). The sensor then adds Gaussian noise, quantisation,
+drop-outs (NaN runs) and spikes. Each section draws its sensor noise from its own seeded
+stream, so sections can be simulated in parallel and the result does not depend on the order.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .config import Catenary
+from .measuring import measuring_pass
+from .pantograph import Pantograph
+from .section import Section
+from .static import solve_static
+from .truth import Line, Measurement
+
+
+def section_model(line: Line, k: int, catenary: Catenary) -> tuple[Section, np.ndarray]:
+    """The true model of section ``k`` of ``line`` and the indices of its spans in the line."""
+    spans = np.flatnonzero(line.params.section_index == k)
+    left = line.spans["left_mast"][spans]
+    masts = np.concatenate([left, [left[-1] + 1]])
+    x = line.masts["chainage_m"][masts]
+    span_type = line.spans["span_type"][spans[0]]
+    lengths = line.params.dropper_lengths_m[spans]
+    n_d = int(np.sum(~np.isnan(lengths[0])))
+    return Section(
+        span_lengths_m=np.diff(x),
+        dropper_span=np.repeat(np.arange(spans.size), n_d),
+        dropper_x_m=np.tile(_positions(catenary, span_type), spans.size),
+        dropper_lengths_m=lengths[:, :n_d].ravel(),
+        cw_support_heights_m=line.masts["cw_height_m"][masts],
+        system_heights_m=line.masts["system_height_m"][masts],
+        contact_tension_n=line.params.contact_tension_n[spans],
+        messenger_tension_n=line.params.messenger_tension_n[spans],
+    ), spans
+
+
+def _positions(catenary: Catenary, span_type: str) -> np.ndarray:
+    return catenary.span_type(span_type).dropper_positions_m
+
+
+def deflections_from_heights(section: Section, heights_at_droppers: np.ndarray, heights_at_masts: np.ndarray) -> np.ndarray:
+    """W per span: heights at droppers minus the chord through the heights at the masts,
+    shape (n_spans, n_droppers_per_span) [m]."""
+    span = section.dropper_span
+    frac = section.dropper_x_m / section.span_lengths_m[span]
+    chord = heights_at_masts[span] + frac * (heights_at_masts[span + 1] - heights_at_masts[span])
+    return (heights_at_droppers - chord).reshape(section.n_spans, -1)
+
+
+def simulate_section(line: Line, k: int, catenary: Catenary, pantograph: Pantograph, measurement: Measurement,
+                     seed: int) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Recording samples and truth rows of section ``k``.
+
+    Returns
+    -------
+    recording : DataFrame
+        ``chainage_m`` (line chainage), ``height_m`` (with sensor effects), ``speed_kmh``,
+        ``force_n`` (the declared force), ``run_id``.
+    truth : DataFrame
+        One row per span: ids, type, every true parameter, ``static_w*_m`` and ``dynamic_w*_m``.
+    """
+    section, spans = section_model(line, k, catenary)
+    offset = line.masts["chainage_m"][line.spans["left_mast"][spans[0]]]
+    static = solve_static(section, catenary)
+    static_w = static.dropper_deflection_m().reshape(section.n_spans, -1)
+
+    masts_x = section.mast_chainage_m
+    grid = np.arange(masts_x[0], masts_x[-1] + 1e-9, measurement.sampling_step_m)
+    exact = np.concatenate([section.dropper_chainage_m, masts_x])
+    force = line.params.measuring_force_n
+    heights = measuring_pass(section, catenary, pantograph.with_static_force(force),
+                             speed_m_s=measurement.speed_kmh / 3.6, mode=measurement.mode,
+                             time_step_s=measurement.time_step_s, chainage_m=np.concatenate([grid, exact])).height_m
+    clean, at_exact = heights[:grid.size], heights[grid.size:]
+    n_d = section.dropper_x_m.size
+    dynamic_w = deflections_from_heights(section, at_exact[:n_d], at_exact[n_d:])
+
+    rng = np.random.default_rng([line_seed(line), seed, k])
+    recorded = sensor(grid, clean, measurement, rng)
+    recording = pd.DataFrame({"chainage_m": grid + offset, "height_m": recorded,
+                              "speed_kmh": np.full(grid.size, measurement.speed_kmh),
+                              "force_n": np.full(grid.size, measurement.force_n),
+                              "run_id": np.full(grid.size, "campaign")})
+    truth = _truth_rows(line, spans, section, offset, static_w, dynamic_w, force)
+    return recording, truth
+
+
+def line_seed(line: Line) -> int:
+    """A stable integer identifying the drawn line (for the sensor streams)."""
+    return int(np.round(line.masts["chainage_m"].sum() * 1e3)) % (2**31)
+
+
+def sensor(chainage_m: np.ndarray, height_m: np.ndarray, m: Measurement, rng: np.random.Generator) -> np.ndarray:
+    """Recorded heights: noise, quantisation, drop-outs (NaN runs) and single-sample spikes."""
+    h = height_m + m.noise_std_m * rng.standard_normal(height_m.size)
+    if m.quantisation_m > 0:
+        h = m.quantisation_m * np.round(h / m.quantisation_m)
+    length_km = (chainage_m[-1] - chainage_m[0]) / 1e3
+    for start in rng.uniform(chainage_m[0], chainage_m[-1], rng.poisson(m.dropout_rate_per_km * length_km)):
+        h[(chainage_m >= start) & (chainage_m < start + m.dropout_length_m)] = np.nan
+    n_spikes = rng.poisson(m.spike_rate_per_km * length_km)
+    where = rng.integers(0, h.size, n_spikes)
+    h[where] += m.spike_height_m * rng.choice([-1.0, 1.0], n_spikes)
+    return h
+
+
+def _truth_rows(line, spans, section, offset, static_w, dynamic_w, force) -> pd.DataFrame:
+    p = line.params
+    left = line.spans["left_mast"][spans]
+    rows = {
+        "span_id": line.spans["span_id"][spans],
+        "section_id": line.spans["section_id"][spans],
+        "span_type": line.spans["span_type"][spans],
+        "start_chainage_m": section.mast_chainage_m[:-1] + offset,
+        "end_chainage_m": section.mast_chainage_m[1:] + offset,
+        "length_m": section.span_lengths_m,
+        "messenger_tension_n": p.messenger_tension_n[spans],
+        "contact_tension_n": p.contact_tension_n[spans],
+        "system_height_left_m": p.system_height_left_m[spans],
+        "system_height_right_m": p.system_height_right_m[spans],
+        "cw_height_left_m": line.masts["cw_height_m"][left],
+        "cw_height_right_m": line.masts["cw_height_m"][left + 1],
+        "creep_offset_m": p.creep_offset_m[spans],
+        "measuring_force_n": np.full(spans.size, force),
+    }
+    n_d = static_w.shape[1]
+    for i in range(n_d):
+        rows[f"dropper_{i + 1}_length_m"] = p.dropper_lengths_m[spans, i]
+    for i in range(n_d):
+        rows[f"static_w{i + 1}_m"] = static_w[:, i]
+    for i in range(n_d):
+        rows[f"dynamic_w{i + 1}_m"] = dynamic_w[:, i]
+    return pd.DataFrame(rows)
+
+
+def masts_table(line: Line) -> pd.DataFrame:
+    """The masts file of SPEC §5.1 (with span types and design CW heights)."""
+    m = line.masts
+    span_type = np.empty(m["mast_id"].size, dtype=object)
+    span_type[line.spans["left_mast"]] = line.spans["span_type"]
+    # the last mast of each section starts no span: give it its section's type
+    last = np.flatnonzero(span_type == None)  # noqa: E711
+    span_type[last] = span_type[last - 1]
+    return pd.DataFrame({"mast_id": m["mast_id"], "chainage_m": m["chainage_m"], "section_id": m["section_id"],
+                         "span_type": span_type.astype(str)})

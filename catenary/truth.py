@@ -1,0 +1,280 @@
+"""Truth specification of the virtual measurement campaign and its seeded draw (SPEC §5.2).
+
+The truth file (``config/campaign.yaml``) describes a line of tensioning sections of spans,
+the random laws of the per-span parameters, the section tensions, the hidden effects of
+:mod:`catenary.effects`, and the measurement settings. :func:`draw_line` turns it into a
+concrete line: masts (ids, chainages, CW heights, system heights) and per-span parameters.
+The pipeline never reads the truth; only validation compares against it.
+
+Laws: ``normal`` or ``gamma`` by (``mean``, ``std``), or ``fixed`` (``mean`` only). Dropper
+lengths are drawn per span and dropper, their means default to the span type's nominal
+table (``mean: nominal``). ΔH and the CW height are drawn per mast, so adjacent spans share
+them; tensions per section.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import yaml
+
+from .config import Catenary
+from .dropper_table import nominal_dropper_lengths
+from .effects import EFFECTS, SpanParameters
+from .errors import ConfigError
+
+LAWS = ("normal", "gamma", "fixed")
+
+
+@dataclass(frozen=True)
+class Law:
+    """A scalar law by mean and standard deviation (SI units)."""
+
+    kind: str
+    mean: float
+    std: float = 0.0
+
+    def sample(self, rng: np.random.Generator, size) -> np.ndarray:
+        if self.kind == "fixed" or self.std == 0.0:
+            return np.full(size, self.mean)
+        if self.kind == "normal":
+            return self.mean + self.std * rng.standard_normal(size)
+        shape = (self.mean / self.std) ** 2
+        return rng.gamma(shape, self.mean / shape, size)
+
+
+@dataclass(frozen=True)
+class SectionSpec:
+    section_id: str
+    span_type: str
+    n_spans: int
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """Recording-car settings.
+
+    Attributes: pantograph (name in the pantographs file), speed_kmh [km/h], force_n
+    (declared mean force [N]), sampling_step_m [m], noise_std_m [m], quantisation_m [m],
+    dropout_rate_per_km, dropout_length_m [m], spike_rate_per_km, spike_height_m [m],
+    mode ("dynamic" or "quasi_static"), time_step_s [s].
+    """
+
+    pantograph: str
+    speed_kmh: float
+    force_n: float
+    sampling_step_m: float
+    noise_std_m: float
+    quantisation_m: float
+    dropout_rate_per_km: float
+    dropout_length_m: float
+    spike_rate_per_km: float
+    spike_height_m: float
+    mode: str
+    time_step_s: float
+
+
+@dataclass(frozen=True)
+class TruthSpec:
+    """Parsed truth file."""
+
+    seed: int
+    sections: list[SectionSpec]
+    section_gap_m: float
+    span_length_jitter_m: float
+    cw_height: Law
+    dropper_laws: dict[str, tuple[np.ndarray | None, np.ndarray, str]]
+    system_height: dict[str, Law]
+    contact_tension: Law
+    messenger_tension: dict[str, Law]
+    hidden_effects: list[tuple[str, dict[str, float]]]
+    measurement: Measurement
+    raw: dict = field(repr=False, default_factory=dict)
+
+
+def _law(raw: Any, where: str) -> Law:
+    if not isinstance(raw, Mapping) or "law" not in raw or "mean" not in raw:
+        raise ConfigError(f"{where}: expected a mapping with 'law' ({', '.join(LAWS)}), 'mean' and 'std'")
+    kind = raw["law"]
+    if kind not in LAWS:
+        raise ConfigError(f"{where}.law: expected one of {LAWS}, got {kind!r}")
+    mean, std = raw["mean"], raw.get("std", 0.0)
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (mean, std)) or std < 0:
+        raise ConfigError(f"{where}: expected numeric mean and std ≥ 0, got {mean!r}, {std!r}")
+    if kind == "gamma" and mean <= 0:
+        raise ConfigError(f"{where}.mean: a gamma law needs a positive mean, got {mean!r}")
+    return Law(kind, float(mean), float(std))
+
+
+def truth_from_dict(raw: Mapping[str, Any], catenary: Catenary, where: str = "campaign") -> TruthSpec:
+    """Check and parse a truth mapping; errors name the key."""
+    def get(m, key, w):
+        if not isinstance(m, Mapping) or key not in m:
+            raise ConfigError(f"{w}.{key}: missing key")
+        return m[key]
+
+    line = get(raw, "line", where)
+    sections = []
+    for i, s in enumerate(get(line, "sections", f"{where}.line")):
+        w = f"{where}.line.sections[{i}]"
+        span_type = get(s, "span_type", w)
+        if span_type not in catenary.span_types:
+            raise ConfigError(f"{w}.span_type: unknown span type {span_type!r}; known: {', '.join(catenary.span_types)}")
+        n = get(s, "n_spans", w)
+        if not isinstance(n, int) or n < 1:
+            raise ConfigError(f"{w}.n_spans: expected a positive integer, got {n!r}")
+        sections.append(SectionSpec(str(get(s, "section_id", w)), span_type, n))
+    ids = [s.section_id for s in sections]
+    if len(set(ids)) != len(ids):
+        raise ConfigError(f"{where}.line.sections: section ids must be unique, got {ids}")
+    used_types = sorted({s.span_type for s in sections})
+    params = get(raw, "span_parameters", where)
+    dropper_laws, system_height, messenger = {}, {}, {}
+    for t in used_types:
+        w = f"{where}.span_parameters.{t}"
+        p = get(params, t, f"{where}.span_parameters")
+        d = get(p, "dropper_lengths_m", w)
+        n_d = catenary.span_type(t).n_droppers
+        mean = d.get("mean", "nominal")
+        std = np.asarray(get(d, "std", f"{w}.dropper_lengths_m"), dtype=float)
+        if std.shape != (n_d,) or np.any(std < 0):
+            raise ConfigError(f"{w}.dropper_lengths_m.std: expected {n_d} values ≥ 0 [m]")
+        if mean != "nominal":
+            mean = np.asarray(mean, dtype=float)
+            if mean.shape != (n_d,) or np.any(mean <= 0):
+                raise ConfigError(f"{w}.dropper_lengths_m.mean: expected 'nominal' or {n_d} positive lengths [m]")
+        else:
+            mean = None
+        law = d.get("law", "gamma")
+        if law not in ("normal", "gamma"):
+            raise ConfigError(f"{w}.dropper_lengths_m.law: expected 'normal' or 'gamma', got {law!r}")
+        dropper_laws[t] = (mean, std, law)
+        system_height[t] = _law(get(p, "system_height_m", w), f"{w}.system_height_m")
+        messenger[t] = _law(get(p, "messenger_tension_n", w), f"{w}.messenger_tension_n")
+    effects = []
+    for i, e in enumerate(raw.get("hidden_effects") or []):
+        w = f"{where}.hidden_effects[{i}]"
+        name = get(e, "name", w)
+        if name not in EFFECTS:
+            raise ConfigError(f"{w}.name: unknown effect {name!r}; known: {', '.join(EFFECTS)}")
+        magnitude = {k: float(v) for k, v in e.items() if k != "name"}
+        effects.append((name, magnitude))
+    m = get(raw, "measurement", where)
+    mw = f"{where}.measurement"
+    measurement = Measurement(
+        pantograph=str(get(m, "pantograph", mw)), speed_kmh=float(get(m, "speed_kmh", mw)),
+        force_n=float(get(m, "force_n", mw)), sampling_step_m=float(get(m, "sampling_step_m", mw)),
+        noise_std_m=float(get(m, "noise_std_m", mw)), quantisation_m=float(get(m, "quantisation_m", mw)),
+        dropout_rate_per_km=float(get(m, "dropout_rate_per_km", mw)),
+        dropout_length_m=float(get(m, "dropout_length_m", mw)),
+        spike_rate_per_km=float(get(m, "spike_rate_per_km", mw)), spike_height_m=float(get(m, "spike_height_m", mw)),
+        mode=str(get(m, "mode", mw)), time_step_s=float(get(m, "time_step_s", mw)))
+    if measurement.mode not in ("dynamic", "quasi_static"):
+        raise ConfigError(f"{mw}.mode: expected 'dynamic' or 'quasi_static', got {measurement.mode!r}")
+    return TruthSpec(
+        seed=int(get(raw, "seed", where)), sections=sections, section_gap_m=float(line.get("section_gap_m", 50.0)),
+        span_length_jitter_m=float(line.get("span_length_jitter_m", 0.0)),
+        cw_height=_law(get(line, "cw_height_m", f"{where}.line"), f"{where}.line.cw_height_m"),
+        dropper_laws=dropper_laws, system_height=system_height,
+        contact_tension=_law(get(raw, "contact_tension_n", where), f"{where}.contact_tension_n"),
+        messenger_tension=messenger, hidden_effects=effects, measurement=measurement, raw=dict(raw))
+
+
+def load_truth(path: str | Path, catenary: Catenary) -> TruthSpec:
+    """Read and check the truth file ``path``."""
+    path = Path(path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: truth file not found") from None
+    if not isinstance(raw, Mapping):
+        raise ConfigError(f"{path}: expected a mapping")
+    return truth_from_dict(raw, catenary, where=str(path))
+
+
+@dataclass(frozen=True)
+class Line:
+    """A drawn line: one row per mast and per span.
+
+    Attributes
+    ----------
+    masts : dict of arrays
+        ``mast_id``, ``section_id``, ``chainage_m``, ``cw_height_m``, ``system_height_m``.
+    spans : dict of arrays
+        ``span_id``, ``section_id``, ``span_type``, ``left``/``right`` mast indices, and the
+        true parameters (dropper lengths as (n_spans, n_droppers) arrays per span type).
+    params : SpanParameters
+    """
+
+    masts: dict
+    spans: dict
+    params: SpanParameters
+    sections: list[SectionSpec]
+
+
+def draw_line(spec: TruthSpec, catenary: Catenary) -> Line:
+    """Draw every true parameter of the line, seeded by ``spec.seed``."""
+    rng = np.random.default_rng(spec.seed)
+    mast_ids, mast_section, mast_x, span_left, span_type, span_section, span_index_in_section = [], [], [], [], [], [], []
+    mast_dh_type = []
+    x = 0.0
+    for k, s in enumerate(spec.sections):
+        st = catenary.span_type(s.span_type)
+        lengths = st.length_m + spec.span_length_jitter_m * rng.standard_normal(s.n_spans)
+        chain = x + np.concatenate([[0.0], np.cumsum(lengths)])
+        first = len(mast_ids)
+        for j, c in enumerate(chain):
+            mast_ids.append(f"M{len(mast_ids) + 1:04d}")
+            mast_section.append(s.section_id)
+            mast_x.append(float(c))
+            mast_dh_type.append(s.span_type)
+        for j in range(s.n_spans):
+            span_left.append(first + j)
+            span_type.append(s.span_type)
+            span_section.append(k)
+            span_index_in_section.append(j)
+        x = chain[-1] + spec.section_gap_m
+    n_masts, n_spans = len(mast_ids), len(span_left)
+    cw_height = spec.cw_height.sample(rng, n_masts)
+    dh = np.empty(n_masts)
+    for t in sorted(set(mast_dh_type)):
+        sel = np.array(mast_dh_type) == t
+        dh[sel] = spec.system_height[t].sample(rng, int(sel.sum()))
+    left = np.array(span_left)
+    span_type = np.array(span_type)
+    n_d = max(catenary.span_type(t).n_droppers for t in set(span_type))
+    lengths = np.full((n_spans, n_d), np.nan)
+    dh_mean = np.empty(n_spans)
+    t_mw = np.empty(n_spans)
+    section_index = np.array(span_section)
+    section_t_mw = {}
+    for t in sorted(set(span_type)):
+        sel = span_type == t
+        mean, std, law = spec.dropper_laws[t]
+        if mean is None:
+            mean = nominal_dropper_lengths(catenary.span_type(t), catenary).dropper_lengths_m
+        draws = np.column_stack([Law(law, m, s).sample(rng, int(sel.sum())) for m, s in zip(mean, std)])
+        lengths[sel, :mean.size] = draws
+        dh_mean[sel] = spec.system_height[t].mean
+    for k, s in enumerate(spec.sections):
+        section_t_mw[k] = spec.messenger_tension[s.span_type].sample(rng, 1)[0]
+    t_mw = np.array([section_t_mw[k] for k in section_index])
+    t_cw = spec.contact_tension.sample(rng, len(spec.sections))[section_index]
+    params = SpanParameters(
+        dropper_lengths_m=lengths, system_height_left_m=dh[left], system_height_right_m=dh[left + 1],
+        system_height_mean_m=dh_mean, messenger_tension_n=t_mw, contact_tension_n=t_cw,
+        section_index=section_index, measuring_force_n=spec.measurement.force_n, creep_offset_m=np.zeros(n_spans))
+    for name, magnitude in spec.hidden_effects:
+        EFFECTS[name](params, rng, **magnitude)
+    if np.any(params.dropper_lengths_m[~np.isnan(params.dropper_lengths_m)] <= 0):
+        raise ConfigError("campaign: drawn dropper lengths must be positive; check the laws and effects")
+    mast_ids = np.array(mast_ids)
+    masts = {"mast_id": mast_ids, "section_id": np.array(mast_section), "chainage_m": np.array(mast_x),
+             "cw_height_m": cw_height, "system_height_m": dh}
+    spans = {"span_id": np.array([f"{mast_ids[i]}-{mast_ids[i + 1]}" for i in left]),
+             "section_id": np.array([spec.sections[k].section_id for k in section_index]),
+             "span_type": span_type, "left_mast": left}
+    return Line(masts=masts, spans=spans, params=params, sections=spec.sections)
