@@ -13,9 +13,11 @@ validate(config, "workflow/schemas/config.schema.yaml")
 include: "workflow/rules/common.smk"
 include: "workflow/rules/static.smk"
 include: "workflow/rules/dynamics.smk"
+include: "workflow/rules/measurements.smk"
 
 
 rule all:
     input:
         static_outputs(),
+        measurement_outputs(),
     default_target: True

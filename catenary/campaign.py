@@ -151,3 +151,26 @@ def masts_table(line: Line) -> pd.DataFrame:
     span_type[last] = span_type[last - 1]
     return pd.DataFrame({"mast_id": m["mast_id"], "chainage_m": m["chainage_m"], "section_id": m["section_id"],
                          "span_type": span_type.astype(str)})
+
+
+def truth_schema(columns) -> "pa.Schema":
+    """Arrow schema of the truth table: identifiers as strings, every other column float64."""
+    import pyarrow as pa
+
+    text = {"span_id", "section_id", "span_type"}
+    return pa.schema([pa.field(c, pa.string() if c in text else pa.float64(), nullable=False) for c in columns])
+
+
+def projection_round_trip(spans: pd.DataFrame, truth: pd.DataFrame) -> dict[str, float]:
+    """Compare projected W with the truth's dynamic and static W of the same spans [m]."""
+    merged = spans.merge(truth, on="span_id", suffixes=("", "_truth"))
+    n_d = len([c for c in spans.columns if c.startswith("w") and c.endswith("_m")])
+    w = merged[[f"w{i}_m" for i in range(1, n_d + 1)]].to_numpy()
+    dyn = merged[[f"dynamic_w{i}_m" for i in range(1, n_d + 1)]].to_numpy()
+    sta = merged[[f"static_w{i}_m" for i in range(1, n_d + 1)]].to_numpy()
+    return {
+        "n_spans": float(len(merged)),
+        "rms_vs_dynamic_m": float(np.sqrt(np.mean((w - dyn) ** 2))),
+        "max_abs_vs_dynamic_m": float(np.max(np.abs(w - dyn))) if len(merged) else float("nan"),
+        "rms_vs_static_m": float(np.sqrt(np.mean((w - sta) ** 2))),
+    }

@@ -19,8 +19,19 @@ def _load_catenary_config():
 
 CATENARY = _load_catenary_config()
 
+
+def _campaign_sections():
+    with open(config["campaign"]) as f:
+        raw = yaml.safe_load(f)
+    validate(raw, "../schemas/campaign.schema.yaml")
+    return [s["section_id"] for s in raw["line"]["sections"]]
+
+
+CAMPAIGN_SECTIONS = _campaign_sections()
+
 wildcard_constraints:
     span_type="|".join(SPAN_TYPES),
+    section="|".join(CAMPAIGN_SECTIONS),
 
 
 def static_outputs():
@@ -32,3 +43,10 @@ def static_outputs():
         ],
         span_type=SPAN_TYPES,
     )
+
+
+def measurement_outputs():
+    outputs = [f"{RESULTS}/spans_report.csv"]
+    if config["recording"].startswith(f"{RESULTS}/campaign/"):
+        outputs.append(f"{RESULTS}/validation/projection_round_trip.csv")
+    return outputs

@@ -1,0 +1,467 @@
+"""Ingestion of a user's recording and masts files (SPEC §5.1).
+
+A **recording** is the contact-wire height measured along the line by a recording car:
+
+========== ======== =====================================================================
+column     required meaning
+========== ======== =====================================================================
+chainage_m yes      position along the line [m], finite, strictly increasing
+height_m   yes      CW height above rail at the pantograph [m]; empty / NaN = drop-out
+speed_kmh  no       train speed [km/h]
+force_n    no       contact force of the measuring pantograph [N]
+run_id     no       text label of the measuring run
+========== ======== =====================================================================
+
+A **masts** file lists the supports:
+
+=========== ======== ====================================================================
+column      required meaning
+=========== ======== ====================================================================
+mast_id     yes      unique text id
+chainage_m  yes      position along the line [m]
+section_id  yes      tensioning section (text); the masts of a section are on consecutive
+                     rows with increasing chainage, sections in order along the line
+span_type   no       type of the span that *starts* at this mast (N2, N3...); empty =
+                     assign by length
+cw_height_m no       design CW height at the steady arm [m]
+=========== ======== ====================================================================
+
+Both may be CSV (``.csv``) or Parquet (``.parquet``/``.pq``). Checks (each failure is an
+:class:`~catenary.errors.InputError` naming the file, the row and/or the column, and what was
+expected): the file exists, is readable and non-empty; required columns are present; numeric
+columns hold numbers; chainages are finite and strictly increasing (recording) or increasing
+within each section (masts); heights are in metres (a median above 20 m is taken for
+millimetres) and inside [0, 20] m; the median sampling step is at most 0.5 m; mast ids are
+unique; each section has at least two masts (one span).
+
+Rows are numbered from 1 in the order of the file, the header not counted; for a CSV file the
+line number (header = line 1) is given too. Columns the format does not know are ignored and
+listed in ``DataFrame.attrs["ignored_columns"]``; they are not written to the ingest outputs.
+
+Problems that concern one span only (a drop-out longer than a dropper spacing, a span without
+samples, an unknown span type) are not errors here: :mod:`catenary.projection` rejects that span
+and reports why.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+
+from .errors import InputError
+from .parquet import read_table, write_table
+
+RECORDING_REQUIRED = ("chainage_m", "height_m")
+RECORDING_OPTIONAL = ("speed_kmh", "force_n", "run_id")
+MASTS_REQUIRED = ("mast_id", "chainage_m", "section_id")
+MASTS_OPTIONAL = ("span_type", "cw_height_m")
+
+MAX_SAMPLING_STEP_M = 0.5
+"""Largest median sampling step of a recording [m] (SPEC §5.1)."""
+HEIGHT_RANGE_M = (0.0, 20.0)
+"""Plausible CW heights above rail [m]; a median above the upper bound means millimetres."""
+
+RECORDING_SCHEMA = pa.schema([
+    pa.field("chainage_m", pa.float64(), nullable=False),
+    pa.field("height_m", pa.float64()),
+    pa.field("speed_kmh", pa.float64()),
+    pa.field("force_n", pa.float64()),
+    pa.field("run_id", pa.string()),
+])
+"""Arrow schema of ``results/ingest/recording.parquet`` (optional columns null when absent;
+a null ``height_m`` is a drop-out)."""
+
+MASTS_SCHEMA = pa.schema([
+    pa.field("mast_id", pa.string(), nullable=False),
+    pa.field("chainage_m", pa.float64(), nullable=False),
+    pa.field("section_id", pa.string(), nullable=False),
+    pa.field("span_type", pa.string()),
+    pa.field("cw_height_m", pa.float64()),
+])
+"""Arrow schema of ``results/ingest/masts.parquet`` (optional columns null when absent)."""
+
+CSV_SUFFIXES = (".csv",)
+PARQUET_SUFFIXES = (".parquet", ".pq")
+
+_HINTS = {
+    "height_m": {"height_mm": "heights look like millimetres; convert them to metres and name the column height_m",
+                 "height": "units go in the column name: name it height_m (metres)"},
+    "chainage_m": {"chainage_km": "convert the chainage to metres and name the column chainage_m",
+                   "chainage": "units go in the column name: name it chainage_m (metres)"},
+}
+
+
+# --------------------------------------------------------------------------------------------
+# reading
+# --------------------------------------------------------------------------------------------
+
+def _source(df: pd.DataFrame, source: str | None, default: str) -> str:
+    if source is not None:
+        return str(source)
+    return str(df.attrs.get("source", default)) if isinstance(df, pd.DataFrame) else default
+
+
+def row_label(position: int, source: str) -> str:
+    """How a user finds the row at 0-based ``position``: ``row 5`` (``row 5 (line 6)`` in a CSV)."""
+    if str(source).lower().endswith(CSV_SUFFIXES):
+        return f"row {position + 1} (line {position + 2})"
+    return f"row {position + 1}"
+
+
+def rows_label(first: int, last: int, source: str) -> str:
+    """A run of rows at 0-based positions ``first`` … ``last``, as :func:`row_label` words it."""
+    if first == last:
+        return row_label(first, source)
+    text = f"rows {first + 1}–{last + 1}"
+    if str(source).lower().endswith(CSV_SUFFIXES):
+        text += f" (lines {first + 2}–{last + 2})"
+    return text
+
+
+def read_data_file(path: str | Path, text_columns: tuple[str, ...] = ()) -> pd.DataFrame:
+    """Read a CSV or Parquet data file into a DataFrame, without checking its content.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        ``.csv``, ``.parquet`` or ``.pq`` file.
+    text_columns : tuple of str
+        Columns read as text from a CSV file (so that an id ``007`` stays ``007``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        With ``attrs["source"]`` set to the path; column names stripped of surrounding blanks.
+
+    Raises
+    ------
+    InputError
+        Missing, empty or unreadable file, or an extension other than CSV / Parquet.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in CSV_SUFFIXES:
+        if not path.is_file():
+            raise InputError(f"{path}: file not found; expected a CSV file")
+        try:
+            df = pd.read_csv(path, dtype={c: str for c in text_columns})
+        except pd.errors.EmptyDataError:
+            raise InputError(f"{path}: empty file; expected a header row of column names and data rows") from None
+        except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
+            raise InputError(f"{path}: not a readable CSV file ({exc}); expected comma-separated "
+                             "values with a header row") from None
+    elif suffix in PARQUET_SUFFIXES:
+        df = read_table(path)
+    else:
+        raise InputError(f"{path}: unsupported file type {suffix or '(no extension)'!r}; "
+                         "expected .csv or .parquet")
+    df.columns = [str(c).strip() for c in df.columns]
+    df.attrs["source"] = str(path)
+    return df
+
+
+def read_recording(path: str | Path) -> pd.DataFrame:
+    """Read and check a recording file (CSV or Parquet); see the module docs for the format.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns of :data:`RECORDING_SCHEMA` in that order: float64 ``chainage_m``, ``height_m``
+        (NaN = drop-out), ``speed_kmh``, ``force_n`` (NaN when absent), text ``run_id``.
+
+    Raises
+    ------
+    InputError
+        Naming the file, the row and/or the column, and what was expected.
+    """
+    return validate_recording(read_data_file(path, text_columns=("run_id",)))
+
+
+def read_masts(path: str | Path) -> pd.DataFrame:
+    """Read and check a masts file (CSV or Parquet); see the module docs for the format.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns of :data:`MASTS_SCHEMA` in that order, rows in file order: text ``mast_id``,
+        float64 ``chainage_m``, text ``section_id``, text ``span_type`` (missing = assign by
+        length), float64 ``cw_height_m`` (NaN when absent).
+
+    Raises
+    ------
+    InputError
+        Naming the file, the row and/or the column, and what was expected.
+    """
+    return validate_masts(read_data_file(path, text_columns=("mast_id", "section_id", "span_type")))
+
+
+# --------------------------------------------------------------------------------------------
+# column checks
+# --------------------------------------------------------------------------------------------
+
+def _check_table(df: Any, src: str, required: tuple[str, ...], optional: tuple[str, ...], what: str) -> None:
+    if not isinstance(df, pd.DataFrame):
+        raise InputError(f"{src}: expected a table ({what}), got {type(df).__name__}")
+    if df.shape[1] == 0 and len(df) == 0:
+        raise InputError(f"{src}: empty table (no columns, no rows); expected {what} with columns "
+                         f"{', '.join(required)}")
+    names = [str(c) for c in df.columns]
+    duplicated = sorted({n for n in names if names.count(n) > 1})
+    if duplicated:
+        raise InputError(f"{src}: column(s) {', '.join(map(repr, duplicated))} appear more than once; "
+                         "expected each column once")
+    missing = [c for c in required if c not in names]
+    if missing:
+        hints = [hint for c in missing for alt, hint in _HINTS.get(c, {}).items() if alt in names]
+        raise InputError(
+            f"{src}: missing required column(s) {', '.join(map(repr, missing))}; expected columns "
+            f"{', '.join(required)} (optional: {', '.join(optional)}); found: "
+            f"{', '.join(names) if names else '(none)'}" + (f". Hint: {'; '.join(hints)}" if hints else ""))
+    if len(df) == 0:
+        raise InputError(f"{src}: no data rows (only a header); expected {what}")
+
+
+def _is_missing(value: Any) -> bool:
+    if value is None or value is pd.NA or value is pd.NaT:
+        return True
+    if isinstance(value, (float, np.floating)):
+        return bool(np.isnan(value))
+    if isinstance(value, str):
+        return value.strip() == ""
+    return False
+
+
+def _to_float(value: Any) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError):
+        return float("nan")
+
+
+def _numeric(df: pd.DataFrame, column: str, src: str, expected: str, *, allow_missing: bool) -> np.ndarray:
+    """Column as float64; junk, ±inf and (unless allowed) missing values are InputErrors."""
+    series = df[column]
+    values: np.ndarray | None = None
+    if pd.api.types.is_numeric_dtype(series.dtype) and not pd.api.types.is_bool_dtype(series.dtype):
+        try:
+            values = series.to_numpy(dtype=float, na_value=np.nan)
+        except (TypeError, ValueError):
+            values = None
+        missing = np.isnan(values) if values is not None else None
+    if values is None:
+        obj = series.astype(object)
+        values = np.array([np.nan if _is_missing(v) or isinstance(v, (bool, np.bool_)) else _to_float(v)
+                           for v in obj], dtype=float)
+        missing = np.array([_is_missing(v) for v in obj], dtype=bool)
+        junk = np.isnan(values) & ~missing
+        if junk.any():
+            i = int(np.flatnonzero(junk)[0])
+            raise InputError(f"{src}: {row_label(i, src)}, column {column!r}: expected a number "
+                             f"({expected}), got {obj.iloc[i]!r}")
+    infinite = np.isinf(values)
+    if infinite.any():
+        i = int(np.flatnonzero(infinite)[0])
+        raise InputError(f"{src}: {row_label(i, src)}, column {column!r}: expected a finite number "
+                         f"({expected}), got {values[i]}")
+    if not allow_missing and missing.any():
+        i = int(np.flatnonzero(missing)[0])
+        raise InputError(f"{src}: {row_label(i, src)}, column {column!r}: missing value; expected {expected}")
+    return values
+
+
+def _text(df: pd.DataFrame, column: str, src: str, expected: str, *, required: bool) -> pd.Series:
+    """Column as text (pandas ``str`` dtype, NaN = missing); integral floats lose their ``.0``."""
+    out: list[str | None] = []
+    for v in df[column].astype(object):
+        if _is_missing(v):
+            out.append(None)
+        elif isinstance(v, (float, np.floating)) and float(v).is_integer():
+            out.append(str(int(v)))
+        else:
+            out.append(str(v).strip())
+    if required:
+        gaps = [i for i, v in enumerate(out) if v is None]
+        if gaps:
+            raise InputError(f"{src}: {row_label(gaps[0], src)}, column {column!r}: missing value; "
+                             f"expected {expected}")
+    return pd.Series(out, dtype="str", index=pd.RangeIndex(len(out)))
+
+
+def _check_heights(values: np.ndarray, column: str, src: str) -> None:
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return
+    low, high = HEIGHT_RANGE_M
+    median = float(np.median(finite))
+    if median > high:
+        raise InputError(f"{src}: column {column!r}: median {median:g} — heights look like millimetres; "
+                         "expected metres (3–8 m above rail)")
+    bad = np.flatnonzero(np.isfinite(values) & ((values < low) | (values > high)))
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f"{src}: {row_label(i, src)}, column {column!r}: height {values[i]:g} m is outside "
+                         f"[{low:g}, {high:g}] m; expected the CW height above rail in metres (3–8 m)")
+
+
+def _ignored(df: pd.DataFrame, known: tuple[str, ...]) -> list[str]:
+    return [str(c) for c in df.columns if c not in known]
+
+
+# --------------------------------------------------------------------------------------------
+# validation
+# --------------------------------------------------------------------------------------------
+
+def validate_recording(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
+    """Check a recording table and return it with canonical columns and dtypes.
+
+    Idempotent: a validated recording passes again unchanged.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Raw table (e.g. from :func:`read_data_file`).
+    source : str, optional
+        Name used in messages; default ``df.attrs["source"]`` or ``"recording"``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns of :data:`RECORDING_SCHEMA`, rows in the original order, RangeIndex.
+
+    Raises
+    ------
+    InputError
+        Naming the source, the row and/or the column, and what was expected.
+    """
+    src = _source(df, source, "recording")
+    _check_table(df, src, RECORDING_REQUIRED, RECORDING_OPTIONAL, "a recording, one row per sample")
+    chainage = _numeric(df, "chainage_m", src, "chainage along the line [m]", allow_missing=False)
+    if chainage.size >= 2:
+        step = np.diff(chainage)
+        bad = np.flatnonzero(step <= 0)
+        if bad.size:
+            i = int(bad[0]) + 1
+            raise InputError(
+                f"{src}: {row_label(i, src)}, column 'chainage_m': {chainage[i]:.6g} m is not greater than "
+                f"the previous row's {chainage[i - 1]:.6g} m; expected strictly increasing chainage "
+                "(sorted, without duplicates)")
+        median_step = float(np.median(step))
+        if median_step > MAX_SAMPLING_STEP_M:
+            raise InputError(f"{src}: column 'chainage_m': median sampling step {median_step:.3g} m; expected "
+                             f"at most {MAX_SAMPLING_STEP_M:g} m between samples")
+    height = _numeric(df, "height_m", src, "CW height above rail [m], empty for a drop-out", allow_missing=True)
+    if not np.isfinite(height).any():
+        raise InputError(f"{src}: column 'height_m' holds no value (all drop-outs); expected CW heights "
+                         "above rail [m]")
+    _check_heights(height, "height_m", src)
+    n = len(df)
+    out = pd.DataFrame({"chainage_m": chainage, "height_m": height})
+    for column, expected in (("speed_kmh", "train speed [km/h]"), ("force_n", "contact force [N]")):
+        out[column] = (_numeric(df, column, src, expected, allow_missing=True) if column in df.columns
+                       else np.full(n, np.nan))
+    out["run_id"] = (_text(df, "run_id", src, "a run label", required=False) if "run_id" in df.columns
+                     else pd.Series([None] * n, dtype="str"))
+    out.attrs["source"] = src
+    out.attrs["ignored_columns"] = _ignored(df, RECORDING_REQUIRED + RECORDING_OPTIONAL)
+    return out
+
+
+def validate_masts(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
+    """Check a masts table and return it with canonical columns and dtypes.
+
+    Idempotent: validated masts pass again unchanged. Rows are kept in file order, so that the
+    position of a mast (+1) is its row number in the user's file.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Raw table (e.g. from :func:`read_data_file`).
+    source : str, optional
+        Name used in messages; default ``df.attrs["source"]`` or ``"masts"``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns of :data:`MASTS_SCHEMA`, RangeIndex.
+
+    Raises
+    ------
+    InputError
+        Naming the source, the row and/or the column, and what was expected.
+    """
+    src = _source(df, source, "masts")
+    _check_table(df, src, MASTS_REQUIRED, MASTS_OPTIONAL, "masts, one row per mast")
+    mast_id = _text(df, "mast_id", src, "a unique mast id", required=True)
+    dup = mast_id.duplicated(keep=False).to_numpy()
+    if dup.any():
+        first = mast_id.iloc[int(np.flatnonzero(dup)[0])]
+        rows = np.flatnonzero((mast_id == first).to_numpy())
+        raise InputError(f"{src}: column 'mast_id': id {first!r} appears {rows.size} times, at "
+                         f"{', '.join(row_label(int(r), src) for r in rows)}; expected unique mast ids")
+    section = _text(df, "section_id", src, "the id of the mast's tensioning section", required=True)
+    chainage = _numeric(df, "chainage_m", src, "chainage of the mast [m]", allow_missing=False)
+
+    # Sections: contiguous rows, increasing chainage within, in order along the line, >= 2 masts.
+    sec = section.to_numpy(dtype=object)
+    starts = np.flatnonzero(np.r_[True, sec[1:] != sec[:-1]])
+    ends = np.r_[starts[1:], sec.size]
+    seen: dict[str, int] = {}
+    for a in starts:
+        name = str(sec[a])
+        if name in seen:
+            raise InputError(f"{src}: {row_label(int(a), src)}, column 'section_id': section {name!r} appears "
+                             f"again after other sections (it started at {row_label(seen[name], src)}); "
+                             "expected the masts of a section on consecutive rows")
+        seen[name] = int(a)
+    previous: tuple[str, int] | None = None
+    for a, b in zip(starts, ends):
+        name = str(sec[a])
+        if b - a < 2:
+            raise InputError(f"{src}: {row_label(int(a), src)}, column 'section_id': section {name!r} has only "
+                             "1 mast; expected at least 2 masts per section (one span)")
+        step = np.diff(chainage[a:b])
+        bad = np.flatnonzero(step <= 0)
+        if bad.size:
+            i = int(a + bad[0] + 1)
+            raise InputError(
+                f"{src}: {row_label(i, src)}, column 'chainage_m': mast {mast_id.iloc[i]!r} at "
+                f"{chainage[i]:.6g} m is not after the previous mast {mast_id.iloc[i - 1]!r} at "
+                f"{chainage[i - 1]:.6g} m of section {name!r}; expected increasing chainage within a section")
+        if previous is not None and chainage[a] < chainage[previous[1]]:
+            raise InputError(
+                f"{src}: {row_label(int(a), src)}, column 'chainage_m': section {name!r} starts at "
+                f"{chainage[a]:.6g} m, before section {previous[0]!r} ({chainage[previous[1]]:.6g} m); "
+                "expected sections in order along the line")
+        previous = (name, int(a))
+
+    n = len(df)
+    out = pd.DataFrame({"mast_id": mast_id, "chainage_m": chainage, "section_id": section})
+    out["span_type"] = (_text(df, "span_type", src, "a span type name", required=False)
+                        if "span_type" in df.columns else pd.Series([None] * n, dtype="str"))
+    if "cw_height_m" in df.columns:
+        cw = _numeric(df, "cw_height_m", src, "design CW height at the steady arm [m]", allow_missing=True)
+        _check_heights(cw, "cw_height_m", src)
+        out["cw_height_m"] = cw
+    else:
+        out["cw_height_m"] = np.full(n, np.nan)
+    out.attrs["source"] = src
+    out.attrs["ignored_columns"] = _ignored(df, MASTS_REQUIRED + MASTS_OPTIONAL)
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# ingest outputs
+# --------------------------------------------------------------------------------------------
+
+def write_recording(df: pd.DataFrame, path: str | Path, *, config_hash: str) -> None:
+    """Write a validated recording to ``path`` (``results/ingest/recording.parquet``)."""
+    write_table(validate_recording(df), path, RECORDING_SCHEMA, config_hash=config_hash, kind="recording")
+
+
+def write_masts(df: pd.DataFrame, path: str | Path, *, config_hash: str) -> None:
+    """Write validated masts to ``path`` (``results/ingest/masts.parquet``)."""
+    write_table(validate_masts(df), path, MASTS_SCHEMA, config_hash=config_hash, kind="masts")

@@ -1,0 +1,22 @@
+"""Rule campaign_section: simulate the recording car over one section of the drawn truth."""
+
+from catenary.campaign import simulate_section, truth_schema
+from catenary.config import load_catenary
+from catenary.logs import rule_logger
+from catenary.pantograph import load_pantographs
+from catenary.parquet import config_hash, write_table
+from catenary.recording import RECORDING_SCHEMA
+from catenary.truth import draw_line, load_truth
+
+log = rule_logger("campaign_section", snakemake.log[0])
+catenary = load_catenary(snakemake.input.catenary)
+spec = load_truth(snakemake.input.campaign, catenary)
+line = draw_line(spec, catenary)
+k = [s.section_id for s in spec.sections].index(snakemake.wildcards.section)
+pantograph = load_pantographs(snakemake.input.pantographs)[spec.measurement.pantograph]
+recording, truth = simulate_section(line, k, catenary, pantograph, spec.measurement, spec.seed)
+digest = config_hash(spec.raw)
+write_table(recording, snakemake.output.recording, RECORDING_SCHEMA, config_hash=digest, kind="recording")
+write_table(truth, snakemake.output.truth, truth_schema(truth.columns), config_hash=digest, kind="truth")
+log.info("section %s: %d samples (%d missing), %d spans", snakemake.wildcards.section, len(recording),
+         int(recording["height_m"].isna().sum()), len(truth))

@@ -1,0 +1,88 @@
+rule campaign_section:
+    """Simulate the recording car over one section of the campaign's truth (SPEC §5.2)."""
+    input:
+        campaign=config["campaign"],
+        catenary=config["catenary"],
+        pantographs=config["pantographs"],
+    output:
+        recording=f"{RESULTS}/campaign/sections/{{section}}_recording.parquet",
+        truth=f"{RESULTS}/campaign/sections/{{section}}_truth.parquet",
+    log:
+        f"{RESULTS}/logs/campaign_section/{{section}}.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/campaign_section.py"
+
+
+rule campaign:
+    """Gather the sections: recording (Parquet and CSV), masts and, apart, the truth."""
+    input:
+        campaign=config["campaign"],
+        catenary=config["catenary"],
+        recordings=expand(f"{RESULTS}/campaign/sections/{{section}}_recording.parquet", section=CAMPAIGN_SECTIONS),
+        truths=expand(f"{RESULTS}/campaign/sections/{{section}}_truth.parquet", section=CAMPAIGN_SECTIONS),
+    output:
+        recording=f"{RESULTS}/campaign/recording.parquet",
+        recording_csv=f"{RESULTS}/campaign/recording.csv",
+        masts=f"{RESULTS}/campaign/masts.csv",
+        truth=f"{RESULTS}/campaign/truth.parquet",
+    log:
+        f"{RESULTS}/logs/campaign.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/campaign.py"
+
+
+rule ingest:
+    """Check the recording and masts files (SPEC §5.1) and store them as Parquet."""
+    input:
+        recording=config["recording"],
+        masts=config["masts"],
+    output:
+        recording=f"{RESULTS}/ingest/recording.parquet",
+        masts=f"{RESULTS}/ingest/masts.parquet",
+    log:
+        f"{RESULTS}/logs/ingest.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/ingest.py"
+
+
+rule project:
+    """Cut into spans, estimate W at the droppers, report every span used or rejected."""
+    input:
+        recording=f"{RESULTS}/ingest/recording.parquet",
+        masts=f"{RESULTS}/ingest/masts.parquet",
+        catenary=config["catenary"],
+    output:
+        spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
+        report=f"{RESULTS}/spans_report.csv",
+    params:
+        projection=config["projection"],
+        span_types=SPAN_TYPES,
+    log:
+        f"{RESULTS}/logs/project.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/project.py"
+
+
+rule projection_check:
+    """Validation only: projected W against the campaign's truth (dynamic W)."""
+    input:
+        spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
+        truth=f"{RESULTS}/campaign/truth.parquet",
+    output:
+        summary=f"{RESULTS}/validation/projection_round_trip.csv",
+    params:
+        span_types=SPAN_TYPES,
+    log:
+        f"{RESULTS}/logs/projection_check.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/projection_check.py"
