@@ -191,12 +191,15 @@ class LikelihoodValue:
         Kish effective size of the retained model sample (0 if not computed).
     status : str
         ``"ok"``, ``"slack"``, ``"tension_out_of_bounds"`` or ``"singular"``.
+    log_density : numpy.ndarray or None
+        ``ln p_W(W_k; s)`` per measured span (K,), whose sum is J; None unless ``status == "ok"``.
     """
 
     j: float
     slack_fraction: float
     n_effective: float
     status: str
+    log_density: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -270,6 +273,13 @@ class Likelihood:
     def n_samples(self) -> int:
         return self.design.n_samples
 
+    def with_data(self, data_w_m: np.ndarray) -> "Likelihood":
+        """The same J (model, design, options) for other measured deflections."""
+        return Likelihood(self.model, self.design, data_w_m, estimator=self.estimator,
+                          system_height_mode=self.system_height_mode, slack_taper_n=self.slack_taper_n,
+                          max_slack_fraction=self.max_slack_fraction, bandwidth=self.bandwidth,
+                          chunk_size=self.chunk_size)
+
     def _weights(self, min_force: np.ndarray) -> np.ndarray:
         if self.slack_taper_n == 0.0:
             return (min_force > 0.0).astype(float)
@@ -323,7 +333,7 @@ class Likelihood:
                 n_eff = float(w.sum() ** 2 / np.dot(w, w))
             except np.linalg.LinAlgError:
                 return LikelihoodValue(-np.inf, slack, 0.0, "singular")
-            return LikelihoodValue(float(np.sum(logp)), slack, n_eff, "ok")
+            return LikelihoodValue(float(np.sum(logp)), slack, n_eff, "ok", logp)
         n = self.model.n_droppers
         sum_w = sum_w2 = 0.0
         s1 = np.zeros(n)
@@ -345,8 +355,8 @@ class Likelihood:
             fit = _fit_from_moments(sum_w, sum_w2, s1, s2, self._shift)
         except np.linalg.LinAlgError:
             return LikelihoodValue(-np.inf, slack, 0.0, "singular")
-        j = float(np.sum(gaussian_log_density(self.data_w_m, fit)))
-        return LikelihoodValue(j, slack, fit.n_effective, "ok")
+        logp = gaussian_log_density(self.data_w_m, fit)
+        return LikelihoodValue(float(np.sum(logp)), slack, fit.n_effective, "ok", logp)
 
     def __call__(self, means: np.ndarray, sigmas: np.ndarray) -> float:
         """J(s) (see :meth:`evaluate`)."""

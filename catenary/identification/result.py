@@ -1,0 +1,117 @@
+"""Result of an identification: the s_opt table, the J trace and the intervals."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import special
+
+from .design import RandomInput
+
+__all__ = ["IdentificationResult", "ParameterEstimate"]
+
+
+@dataclass(frozen=True)
+class ParameterEstimate:
+    """One row of the s_opt table (units of the parameter name); se = standard error."""
+
+    parameter: str
+    mu: float
+    sigma: float
+    mu_se: float
+    sigma_se: float
+    mu_fixed: bool
+
+
+@dataclass(frozen=True)
+class IdentificationResult:
+    """Outcome of :func:`identify`.
+
+    Attributes
+    ----------
+    estimates : tuple of ParameterEstimate
+        s_opt with standard errors, one row per random input (design order).
+    j_opt : float
+        J(s_opt).
+    n_evaluations : int
+        Evaluations of J by the optimiser (the Hessian's are in ``n_hessian_evaluations``).
+    trace_means, trace_sigmas : numpy.ndarray, shape (n_evaluations, d)
+        s at every optimiser evaluation.
+    trace_j : numpy.ndarray, shape (n_evaluations,)
+        J at every optimiser evaluation (−inf where infeasible).
+    time_s : float
+        Wall time of the optimisation and the standard errors [s].
+    method : str
+    converged : bool
+        The optimiser's own convergence flag.
+    message : str
+    free_parameters : tuple of str
+        Names ``"<input>.mu"`` / ``"<input>.sigma"`` of the coordinates θ.
+    theta_opt : numpy.ndarray
+    theta_covariance : numpy.ndarray
+        ``(−H)⁻¹`` in θ (NaN if −H is not positive definite or not computed).
+    n_hessian_evaluations : int
+    slack_fraction : float
+        Slack fraction of the model sample at s_opt.
+    """
+
+    estimates: tuple[ParameterEstimate, ...]
+    j_opt: float
+    n_evaluations: int
+    trace_means: np.ndarray
+    trace_sigmas: np.ndarray
+    trace_j: np.ndarray
+    time_s: float
+    method: str
+    converged: bool
+    message: str
+    free_parameters: tuple[str, ...]
+    theta_opt: np.ndarray
+    theta_covariance: np.ndarray
+    n_hessian_evaluations: int
+    slack_fraction: float
+
+    @property
+    def means(self) -> np.ndarray:
+        return np.array([e.mu for e in self.estimates])
+
+    @property
+    def sigmas(self) -> np.ndarray:
+        return np.array([e.sigma for e in self.estimates])
+
+    def inputs(self) -> tuple[RandomInput, ...]:
+        """s_opt as random inputs."""
+        return tuple(RandomInput(e.parameter, e.mu, e.sigma) for e in self.estimates)
+
+    def table_rows(self) -> list[dict]:
+        """s_opt table: parameter, mu, sigma, mu_se, sigma_se, mu_fixed."""
+        return [dict(parameter=e.parameter, mu=e.mu, sigma=e.sigma, mu_se=e.mu_se,
+                     sigma_se=e.sigma_se, mu_fixed=e.mu_fixed) for e in self.estimates]
+
+    def intervals(self, level: float = 0.95) -> list[dict]:
+        """Wald confidence intervals, built in the optimisation coordinates θ.
+
+        Means: ``μ̂ ± z se(μ)`` (μ is linear in θ); σ: ``σ̂ exp(± z se(σ)/σ̂)`` — the interval of
+        ``θ_σ = ln σ``, where the quadratic approximation of J is made. It stays positive and
+        follows the skew of the likelihood in σ, which the symmetric ``σ̂ ± z se(σ)`` does not
+        (with 117 spans it under-covered T_MW σ: 25 of 30 replicates against 28 of 30 for this
+        one). ``z`` is the standard normal quantile of ``(1 + level)/2``; fixed means get a
+        zero-width interval.
+        """
+        z = float(special.ndtri(0.5 * (1.0 + level)))
+        return [dict(parameter=e.parameter, mu_low=e.mu - z * e.mu_se, mu_high=e.mu + z * e.mu_se,
+                     sigma_low=e.sigma * np.exp(-z * e.sigma_se / e.sigma),
+                     sigma_high=e.sigma * np.exp(z * e.sigma_se / e.sigma)) for e in self.estimates]
+
+    def trace_rows(self) -> list[dict]:
+        """J trace: evaluation, j and ``<input>_mu``, ``<input>_sigma`` per evaluation."""
+        names = [e.parameter for e in self.estimates]
+        rows = []
+        for i, j in enumerate(self.trace_j):
+            row = {"evaluation": i + 1, "j": float(j)}
+            for k, name in enumerate(names):
+                row[f"{name}_mu"] = float(self.trace_means[i, k])
+                row[f"{name}_sigma"] = float(self.trace_sigmas[i, k])
+            rows.append(row)
+        return rows
