@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 
 from .config import Catenary
 from .measuring import measuring_pass
@@ -153,10 +154,8 @@ def masts_table(line: Line) -> pd.DataFrame:
                          "span_type": span_type.astype(str)})
 
 
-def truth_schema(columns) -> "pa.Schema":
+def truth_schema(columns) -> pa.Schema:
     """Arrow schema of the truth table: identifiers as strings, every other column float64."""
-    import pyarrow as pa
-
     text = {"span_id", "section_id", "span_type"}
     return pa.schema([pa.field(c, pa.string() if c in text else pa.float64(), nullable=False) for c in columns])
 

@@ -244,7 +244,7 @@ class PseudoForceSolver:
             new_slack = k * elongation < 0.0
             new_touching = touching
             if contact is not None and contact.head_flex_m_n is not None:
-                w = w_star + zp_g[s_idx] @ lam + (cz * f_c if contact is not None else 0.0)
+                w = w_star + zp_g[s_idx] @ lam + cz * f_c
                 gap = contact.head_free_m + contact.head_flex_m_n * f_c - w
                 new_touching = (f_c > 0.0) if touching else (gap > 0.0)
             if np.array_equal(new_slack, slack) and new_touching == touching:

@@ -218,7 +218,7 @@ class Line:
 def draw_line(spec: TruthSpec, catenary: Catenary) -> Line:
     """Draw every true parameter of the line, seeded by ``spec.seed``."""
     rng = np.random.default_rng(spec.seed)
-    mast_ids, mast_section, mast_x, span_left, span_type, span_section, span_index_in_section = [], [], [], [], [], [], []
+    mast_ids, mast_section, mast_x, span_left, span_type, span_section = [], [], [], [], [], []
     mast_dh_type = []
     x = 0.0
     for k, s in enumerate(spec.sections):
@@ -226,7 +226,7 @@ def draw_line(spec: TruthSpec, catenary: Catenary) -> Line:
         lengths = st.length_m + spec.span_length_jitter_m * rng.standard_normal(s.n_spans)
         chain = x + np.concatenate([[0.0], np.cumsum(lengths)])
         first = len(mast_ids)
-        for j, c in enumerate(chain):
+        for c in chain:
             mast_ids.append(f"M{len(mast_ids) + 1:04d}")
             mast_section.append(s.section_id)
             mast_x.append(float(c))
@@ -235,7 +235,6 @@ def draw_line(spec: TruthSpec, catenary: Catenary) -> Line:
             span_left.append(first + j)
             span_type.append(s.span_type)
             span_section.append(k)
-            span_index_in_section.append(j)
         x = chain[-1] + spec.section_gap_m
     n_masts, n_spans = len(mast_ids), len(span_left)
     cw_height = spec.cw_height.sample(rng, n_masts)
@@ -248,9 +247,7 @@ def draw_line(spec: TruthSpec, catenary: Catenary) -> Line:
     n_d = max(catenary.span_type(t).n_droppers for t in set(span_type))
     lengths = np.full((n_spans, n_d), np.nan)
     dh_mean = np.empty(n_spans)
-    t_mw = np.empty(n_spans)
     section_index = np.array(span_section)
-    section_t_mw = {}
     for t in sorted(set(span_type)):
         sel = span_type == t
         mean, std, law = spec.dropper_laws[t]
@@ -259,9 +256,8 @@ def draw_line(spec: TruthSpec, catenary: Catenary) -> Line:
         draws = np.column_stack([Law(law, m, s).sample(rng, int(sel.sum())) for m, s in zip(mean, std)])
         lengths[sel, :mean.size] = draws
         dh_mean[sel] = spec.system_height[t].mean
-    for k, s in enumerate(spec.sections):
-        section_t_mw[k] = spec.messenger_tension[s.span_type].sample(rng, 1)[0]
-    t_mw = np.array([section_t_mw[k] for k in section_index])
+    section_t_mw = np.array([spec.messenger_tension[s.span_type].sample(rng, 1)[0] for s in spec.sections])
+    t_mw = section_t_mw[section_index]
     t_cw = spec.contact_tension.sample(rng, len(spec.sections))[section_index]
     params = SpanParameters(
         dropper_lengths_m=lengths, system_height_left_m=dh[left], system_height_right_m=dh[left + 1],
