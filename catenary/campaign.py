@@ -40,6 +40,7 @@ def section_model(line: Line, k: int, catenary: Catenary) -> tuple[Section, np.n
         system_heights_m=line.masts["system_height_m"][masts],
         contact_tension_n=line.params.contact_tension_n[spans],
         messenger_tension_n=line.params.messenger_tension_n[spans],
+        dropper_offset_m=np.repeat(line.params.cw_offset_m[spans], n_d),
     ), spans
 
 
@@ -130,6 +131,7 @@ def _truth_rows(line, spans, section, offset, static_w, dynamic_w, force) -> pd.
         "cw_height_left_m": line.masts["cw_height_m"][left],
         "cw_height_right_m": line.masts["cw_height_m"][left + 1],
         "creep_offset_m": p.creep_offset_m[spans],
+        "cw_offset_m": p.cw_offset_m[spans],
         "measuring_force_n": np.full(spans.size, force),
     }
     n_d = static_w.shape[1]
@@ -172,4 +174,26 @@ def projection_round_trip(spans: pd.DataFrame, truth: pd.DataFrame) -> dict[str,
         "rms_vs_dynamic_m": float(np.sqrt(np.mean((w - dyn) ** 2))),
         "max_abs_vs_dynamic_m": float(np.max(np.abs(w - dyn))) if len(merged) else float("nan"),
         "rms_vs_static_m": float(np.sqrt(np.mean((w - sta) ** 2))),
+    }
+
+
+def correction_round_trip(corrected: pd.DataFrame, spans: pd.DataFrame, truth: pd.DataFrame) -> dict[str, float]:
+    """Corrected static W (converged spans) and the uncorrected projected W against the truth's
+    static W of the same spans [m]: the correction's accuracy and the size of the correction."""
+    ok = corrected[corrected["converged"]]
+    n_d = len([c for c in ok.columns if c.startswith("w") and c.endswith("_m")])
+    cols = [f"w{i}_m" for i in range(1, n_d + 1)]
+    static = [f"static_w{i}_m" for i in range(1, n_d + 1)]
+    merged = ok[["span_id"] + cols].merge(truth[["span_id"] + static], on="span_id")
+    raw = spans[["span_id"] + cols].merge(truth[["span_id"] + static], on="span_id")
+    error = merged[cols].to_numpy() - merged[static].to_numpy()
+    raw_error = raw[cols].to_numpy() - raw[static].to_numpy()
+    per_span = np.sqrt(np.mean(error ** 2, axis=1)) if len(merged) else np.zeros(0)
+    return {
+        "n_spans": float(len(corrected)),
+        "n_converged": float(len(ok)),
+        "rms_corrected_vs_static_m": float(np.sqrt(np.mean(error ** 2))) if len(merged) else float("nan"),
+        "max_abs_corrected_vs_static_m": float(np.max(np.abs(error))) if len(merged) else float("nan"),
+        "max_span_rms_corrected_vs_static_m": float(np.max(per_span, initial=np.nan)),
+        "rms_uncorrected_vs_static_m": float(np.sqrt(np.mean(raw_error ** 2))) if len(raw) else float("nan"),
     }

@@ -59,7 +59,7 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
         Geometry and tensions; its dropper lengths are the starting guess.
     catenary : Catenary
     cw_heights_m : array_like
-        Target CW height at each dropper of the section [m].
+        Target CW height at each dropper's CW clamp [m] (at the dropper for vertical ones).
 
     Raises
     ------
@@ -89,7 +89,11 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
         np.add.at(loads, model.dropper_cw_dof, force)
         u, _, _ = model._linear_solve(no_droppers, loads)
         stretched = u[model.dropper_mw_dof] - target
-        new = stretched * ea / (ea + force)
+        if np.any(section.clamp_offset_m):
+            vertical = stretched - force / model.dropper_stiffness_n_m  # fixed point: k_v depends on L
+            new = np.sqrt(vertical ** 2 + section.clamp_offset_m ** 2)
+        else:
+            new = stretched * ea / (ea + force)
         change = np.max(np.abs(new - lengths))
         lengths = new
         if change < tolerance_m:

@@ -53,15 +53,19 @@ def rayleigh_coefficients(ratio: float, f1_hz: float, f2_hz: float) -> tuple[flo
 
 
 def _banded(matrix: sp.spmatrix) -> np.ndarray:
-    """Upper banded storage of a symmetric matrix for :func:`scipy.linalg.cholesky_banded`."""
-    m = matrix.tocsr()
+    """Upper banded storage of a symmetric matrix for :func:`scipy.linalg.cholesky_banded`.
+
+    The bandwidth is ``BANDWIDTH`` for vertical droppers; an inclined dropper couples the MW
+    at one node with the CW at a neighbouring one and widens it.
+    """
+    m = matrix.tocoo()
     n = m.shape[0]
-    ab = np.zeros((BANDWIDTH + 1, n))
-    for d in range(BANDWIDTH + 1):
-        ab[BANDWIDTH - d, d:] = m.diagonal(d)
-    outside = sp.triu(m, BANDWIDTH + 1)
-    if outside.nnz and np.any(outside.data != 0):
-        raise ValueError("matrix bandwidth exceeds the interleaved layout (non-vertical droppers?)")
+    nonzero = m.data != 0
+    width = max(BANDWIDTH, int(np.max(m.col[nonzero] - m.row[nonzero], initial=0)))
+    ab = np.zeros((width + 1, n))
+    m = m.tocsr()
+    for d in range(width + 1):
+        ab[width - d, d:] = m.diagonal(d)
     return ab
 
 
@@ -136,7 +140,7 @@ class CatenaryDynamics:
         self.dropper_cw = index[static.dropper_cw_dof]
         self.dropper_mw = index[static.dropper_mw_dof]
         self.dropper_k = static.dropper_stiffness_n_m
-        self.dropper_l = section.dropper_lengths_m
+        self.dropper_l = static.dropper_rest_length_m
         self.fixed, self.fixed_values = fixed, fixed_values
 
         # Contact interpolation: exact shape functions, their basis inverse cached per element.

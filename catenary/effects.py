@@ -19,6 +19,12 @@ magnitude read from the truth specification:
     dropper to the measured system height.
 ``measuring_force_offset`` (``force_n``)
     The measuring pantograph pushes ``force_n`` more than the declared force.
+``cw_longitudinal_offset`` (``mean_m``, ``std_m``)
+    The CW is shifted along the line relative to the MW (thermal expansion of wires regulated
+    from different anchors, or droppers fitted off the design position): every dropper of a
+    span is inclined, its CW clamp ``δ`` from its MW clamp, with ``δ`` drawn per span. The
+    droppers' geometry is :func:`catenary.section.inclined_dropper`; the fast model takes the
+    same offset (``FastSpanModel(cw_clamp_offset_m=...)``).
 
 All magnitudes are SI. Effects are applied in the order listed in the truth file.
 """
@@ -51,6 +57,8 @@ class SpanParameters:
         Force the measuring pantograph really applies [N].
     creep_offset_m : numpy.ndarray
         Common dropper-length offset planted in each span [m] (0 without creep).
+    cw_offset_m : numpy.ndarray
+        Longitudinal offset of each span's CW clamps from its MW clamps [m] (0: vertical droppers).
     """
 
     dropper_lengths_m: np.ndarray
@@ -62,6 +70,7 @@ class SpanParameters:
     section_index: np.ndarray
     measuring_force_n: float
     creep_offset_m: np.ndarray
+    cw_offset_m: np.ndarray
 
 
 def messenger_tension_variability(p: SpanParameters, rng: np.random.Generator, *, std_n: float) -> None:
@@ -90,10 +99,15 @@ def measuring_force_offset(p: SpanParameters, rng: np.random.Generator, *, force
     p.measuring_force_n = p.measuring_force_n + force_n
 
 
+def cw_longitudinal_offset(p: SpanParameters, rng: np.random.Generator, *, mean_m: float, std_m: float = 0.0) -> None:
+    p.cw_offset_m = p.cw_offset_m + mean_m + std_m * rng.standard_normal(p.cw_offset_m.size)
+
+
 EFFECTS: dict[str, Callable[..., None]] = {
     "messenger_tension_variability": messenger_tension_variability,
     "contact_tension_variability": contact_tension_variability,
     "dropper_creep": dropper_creep,
     "system_height_dropper_correlation": system_height_dropper_correlation,
     "measuring_force_offset": measuring_force_offset,
+    "cw_longitudinal_offset": cw_longitudinal_offset,
 }

@@ -2,9 +2,11 @@
 
 A *section* is a run of consecutive spans between masts. Each mast ``j`` holds the contact
 wire (CW) at its steady arm at height ``cw_support_heights_m[j]`` and the messenger wire (MW)
-at ``cw_support_heights_m[j] + system_heights_m[j]``. Droppers hang vertically; dropper ``i``
-lies in span ``dropper_span[i]`` at ``dropper_x_m[i]`` from that span's left mast and has the
-unstretched length ``dropper_lengths_m[i]``.
+at ``cw_support_heights_m[j] + system_heights_m[j]``. Dropper ``i`` hangs from the MW in span
+``dropper_span[i]`` at ``dropper_x_m[i]`` from that span's left mast (its design position, where
+W is measured) and has the unstretched length ``dropper_lengths_m[i]``. Its CW clamp sits
+``dropper_offset_m[i]`` further along the line (0: a vertical dropper; see
+:func:`inclined_dropper`).
 """
 
 from __future__ import annotations
@@ -15,6 +17,41 @@ import numpy as np
 
 from .config import SpanType
 from .errors import ConfigError
+
+#: Offsets of the CW clamp smaller than this [m] are treated as vertical droppers: their
+#: shortening δ²/(2L) is below 1e-6 m and a sub-millimetre element would be ill-conditioned.
+MIN_DROPPER_OFFSET_M = 1e-3
+
+
+def inclined_dropper(lengths_m: np.ndarray, offsets_m: np.ndarray,
+                     axial_stiffness_n: float) -> tuple[np.ndarray, np.ndarray]:
+    """Vertical rest length [m] and vertical stiffness [N/m] of inclined droppers.
+
+    A dropper of unstretched length ``L`` whose CW clamp is offset by ``δ`` along the line from
+    its MW clamp spans the vertical distance ``L_v = √(L² − δ²)`` when unstretched. Linearising
+    its axial force ``EA (ℓ − L) / L`` about that state, the vertical force per vertical
+    stretch is ``EA L_v² / L³`` (``EA cos²θ / L``); the horizontal components, ``F δ / L`` on
+    each wire, are below 1e-3 of the wire tensions and are neglected. This is the one place
+    the inclined-dropper physics lives: the FE models, the fast model and the campaign's
+    ``cw_longitudinal_offset`` effect all use it.
+
+    Parameters
+    ----------
+    lengths_m : array_like
+        Unstretched dropper lengths ``L`` [m].
+    offsets_m : array_like
+        Longitudinal offsets ``δ`` of the CW clamps from the MW clamps [m]; ``|δ| < L``.
+    axial_stiffness_n : float
+        Dropper axial stiffness ``EA`` [N].
+
+    Returns
+    -------
+    rest_length_m, stiffness_n_m : numpy.ndarray
+    """
+    length = np.asarray(lengths_m, dtype=float)
+    offset = np.asarray(offsets_m, dtype=float)
+    vertical = np.sqrt(length ** 2 - offset ** 2)
+    return vertical, axial_stiffness_n * vertical ** 2 / length ** 3
 
 
 @dataclass(frozen=True)
@@ -38,6 +75,9 @@ class Section:
     contact_tension_n, messenger_tension_n : float or numpy.ndarray
         T_CW and T_MW [N]: one value for the section (tensioning weights at its ends), or one
         per span (shape (n_spans,)) to model tension differences between spans.
+    dropper_offset_m : float or numpy.ndarray
+        Offset of each dropper's CW clamp from its MW clamp along the line [m] (inclined
+        droppers; positive towards increasing chainage). Default 0: vertical droppers.
     """
 
     span_lengths_m: np.ndarray
@@ -48,6 +88,7 @@ class Section:
     system_heights_m: np.ndarray
     contact_tension_n: float | np.ndarray
     messenger_tension_n: float | np.ndarray
+    dropper_offset_m: float | np.ndarray = 0.0
 
     def __post_init__(self) -> None:
         for name in ("span_lengths_m", "dropper_x_m", "dropper_lengths_m",
@@ -62,10 +103,21 @@ class Section:
                            ("dropper_span", n_d), ("dropper_lengths_m", n_d)):
             if getattr(self, name).size != size:
                 raise ConfigError(f"{name}: expected {size} values, got {getattr(self, name).size}")
+        offset = np.asarray(self.dropper_offset_m, dtype=float)
+        if offset.ndim and offset.shape != (n_d,):
+            raise ConfigError(f"dropper_offset_m: expected one offset or {n_d} (one per dropper), got shape {offset.shape}")
+        offset = np.broadcast_to(offset, (n_d,)).copy()
+        if np.any(~np.isfinite(offset)):
+            raise ConfigError(f"dropper_offset_m: expected finite offsets [m], got {offset}")
+        object.__setattr__(self, "dropper_offset_m", offset)
         if np.any(self.system_heights_m <= 0):
             raise ConfigError(f"system_heights_m: expected values > 0 [m], got {self.system_heights_m}")
         if np.any(~np.isfinite(self.dropper_lengths_m)) or np.any(self.dropper_lengths_m <= 0):
             raise ConfigError(f"dropper_lengths_m: expected values > 0 [m], got {self.dropper_lengths_m}")
+        if np.any(np.abs(offset) >= self.dropper_lengths_m):
+            bad = int(np.flatnonzero(np.abs(offset) >= self.dropper_lengths_m)[0])
+            raise ConfigError(f"dropper_offset_m[{bad}] = {offset[bad]} m: a dropper of length "
+                              f"{self.dropper_lengths_m[bad]} m cannot reach that far")
         for name in ("contact_tension_n", "messenger_tension_n"):
             value = np.asarray(getattr(self, name), dtype=float)
             if value.ndim == 0:
@@ -84,6 +136,10 @@ class Section:
                 bad = int(np.flatnonzero((self.dropper_x_m <= 0) | (self.dropper_x_m >= length))[0])
                 raise ConfigError(f"dropper_x_m[{bad}] = {self.dropper_x_m[bad]} m lies outside its span "
                                   f"(0, {length[bad]}) m")
+            clamp = self.dropper_x_m + self.clamp_offset_m
+            if np.any(clamp <= 0) or np.any(clamp >= length):
+                bad = int(np.flatnonzero((clamp <= 0) | (clamp >= length))[0])
+                raise ConfigError(f"dropper_offset_m[{bad}] = {offset[bad]} m puts the CW clamp outside its span")
             same = self.dropper_span[1:] == self.dropper_span[:-1]
             if np.any(same & (np.diff(self.dropper_x_m) <= 0)):
                 raise ConfigError("dropper_x_m: positions within a span must be strictly increasing")
@@ -113,6 +169,18 @@ class Section:
         return self.mast_chainage_m[self.dropper_span] + self.dropper_x_m
 
     @property
+    def clamp_offset_m(self) -> np.ndarray:
+        """Offset of each CW clamp from its dropper's design position in the mesh [m]: the
+        dropper offsets, with those below :data:`MIN_DROPPER_OFFSET_M` set to 0."""
+        offset = self.dropper_offset_m
+        return np.where(np.abs(offset) < MIN_DROPPER_OFFSET_M, 0.0, offset)
+
+    @property
+    def cw_clamp_chainage_m(self) -> np.ndarray:
+        """Chainage of each dropper's CW clamp from the section start [m]."""
+        return self.dropper_chainage_m + self.clamp_offset_m
+
+    @property
     def mw_support_heights_m(self) -> np.ndarray:
         """Messenger-wire height at each mast [m]."""
         return self.cw_support_heights_m + self.system_heights_m
@@ -129,6 +197,14 @@ class Section:
     def with_dropper_lengths(self, dropper_lengths_m: np.ndarray) -> "Section":
         """A copy with other unstretched dropper lengths [m]."""
         return _replace(self, dropper_lengths_m=np.asarray(dropper_lengths_m, dtype=float))
+
+    def with_cw_support_heights(self, cw_support_heights_m: np.ndarray) -> "Section":
+        """A copy with other CW heights at the steady arms [m] (system heights kept)."""
+        return _replace(self, cw_support_heights_m=np.asarray(cw_support_heights_m, dtype=float))
+
+    def with_dropper_offsets(self, dropper_offset_m: float | np.ndarray) -> "Section":
+        """A copy with other CW clamp offsets [m] (inclined droppers)."""
+        return _replace(self, dropper_offset_m=dropper_offset_m)
 
     def with_tensions(self, *, contact_tension_n: float | None = None,
                       messenger_tension_n: float | None = None) -> "Section":
@@ -202,7 +278,9 @@ class Mesh:
     mast_nodes : numpy.ndarray
         Node index of each mast.
     dropper_nodes : numpy.ndarray
-        Node index of each dropper (the same node on both wires: droppers are vertical).
+        Node index of each dropper's design position (its MW clamp; W is read there).
+    cw_clamp_nodes : numpy.ndarray
+        Node index of each dropper's CW clamp (equal to ``dropper_nodes`` for vertical droppers).
     element_span : numpy.ndarray
         Span index of each element.
     """
@@ -211,6 +289,7 @@ class Mesh:
     mast_nodes: np.ndarray
     dropper_nodes: np.ndarray
     element_span: np.ndarray
+    cw_clamp_nodes: np.ndarray
 
     @property
     def n_nodes(self) -> int:
@@ -234,7 +313,7 @@ def build_mesh(section: Section, max_element_length_m: float) -> Mesh:
     """Mesh with a node at every mast and dropper and elements no longer than the bound [m]."""
     if max_element_length_m <= 0:
         raise ConfigError(f"max_element_length_m: expected > 0, got {max_element_length_m}")
-    key = np.concatenate([section.mast_chainage_m, section.dropper_chainage_m])
+    key = np.concatenate([section.mast_chainage_m, section.dropper_chainage_m, section.cw_clamp_chainage_m])
     key = np.unique(np.round(key, 9))
     gaps = np.diff(key)
     n_sub = np.maximum(1, np.ceil(gaps / max_element_length_m - 1e-9).astype(int))
@@ -247,4 +326,4 @@ def build_mesh(section: Section, max_element_length_m: float) -> Mesh:
     mid = 0.5 * (x[1:] + x[:-1])
     span = np.clip(np.searchsorted(section.mast_chainage_m, mid) - 1, 0, section.n_spans - 1)
     return Mesh(x_m=x, mast_nodes=nodes(section.mast_chainage_m), dropper_nodes=nodes(section.dropper_chainage_m),
-                element_span=span)
+                element_span=span, cw_clamp_nodes=nodes(section.cw_clamp_chainage_m))

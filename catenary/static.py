@@ -27,7 +27,7 @@ from scipy.sparse.linalg import splu
 from . import beam
 from .config import Catenary, Wire
 from .errors import ConvergenceError
-from .section import Mesh, Section, build_mesh
+from .section import Mesh, Section, build_mesh, inclined_dropper
 
 DOFS_PER_NODE = 4
 CW, MW = 0, 2  # offset of each wire's vertical DOF within a node
@@ -90,7 +90,7 @@ class StaticSolution:
         return self.cw_height_at(s) - self.section.chord_height_m(s)
 
     def dropper_deflection_m(self) -> np.ndarray:
-        """W: CW deflection from the chord at every dropper [m], shape (n_droppers,)."""
+        """W: CW deflection from the chord at every dropper's design position [m], shape (n_droppers,)."""
         s = self.section.dropper_chainage_m
         return self.cw_height_m[self.mesh.dropper_nodes] - self.section.chord_height_m(s)
 
@@ -171,16 +171,18 @@ class StaticModel:
         self.n_dofs = n
         self.k_wires = (wire_stiffness(mesh, catenary.contact, section.contact_tension_by_span_n, CW)
                         + wire_stiffness(mesh, catenary.messenger, section.messenger_tension_by_span_n, MW))
-        self.f_gravity = self._gravity_loads()
         masts = mesh.mast_nodes
         self.fixed = np.concatenate([DOFS_PER_NODE * masts + CW, DOFS_PER_NODE * masts + MW])
         self.fixed_values = np.concatenate([section.cw_support_heights_m, section.mw_support_heights_m])
         free = np.ones(n, dtype=bool)
         free[self.fixed] = False
         self.free = np.flatnonzero(free)
-        self.dropper_cw_dof = DOFS_PER_NODE * mesh.dropper_nodes + CW
+        self.dropper_cw_dof = DOFS_PER_NODE * mesh.cw_clamp_nodes + CW
         self.dropper_mw_dof = DOFS_PER_NODE * mesh.dropper_nodes + MW
-        self.dropper_stiffness_n_m = catenary.droppers.axial_stiffness_n / section.dropper_lengths_m
+        # Vertical rest length and stiffness (= L and EA/L for vertical droppers).
+        self.dropper_rest_length_m, self.dropper_stiffness_n_m = inclined_dropper(
+            section.dropper_lengths_m, section.clamp_offset_m, catenary.droppers.axial_stiffness_n)
+        self.f_gravity = self._gravity_loads()
 
     def _gravity_loads(self) -> np.ndarray:
         cat, mesh, sec = self.catenary, self.mesh, self.section
@@ -193,8 +195,8 @@ class StaticModel:
             loads = beam.tensioned_uniform_load(h, q, wire.bending_stiffness_n_m2, tension)[inverse]
             np.add.at(f, element_dofs(mesh, offset), loads)
         half_dropper = 0.5 * cat.droppers.mass_per_length_kg_m * sec.dropper_lengths_m
-        np.add.at(f, DOFS_PER_NODE * mesh.dropper_nodes + CW, -g * (cat.droppers.clamp_mass_contact_kg + half_dropper))
-        np.add.at(f, DOFS_PER_NODE * mesh.dropper_nodes + MW, -g * (cat.droppers.clamp_mass_messenger_kg + half_dropper))
+        np.add.at(f, self.dropper_cw_dof, -g * (cat.droppers.clamp_mass_contact_kg + half_dropper))
+        np.add.at(f, self.dropper_mw_dof, -g * (cat.droppers.clamp_mass_messenger_kg + half_dropper))
         return f
 
     def total_weight_n(self) -> float:
@@ -202,7 +204,8 @@ class StaticModel:
         return float(-self.f_gravity[0::2].sum())  # rotational DOFs carry moments, not forces
 
     def dropper_matrices(self, taut: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
-        """Stiffness and preload of the taut droppers (energy ½ k (z_mw − z_cw − L)²)."""
+        """Stiffness and preload of the taut droppers (energy ½ k (z_mw − z_cw − L_v)², with
+        ``L_v`` the vertical rest length, see :func:`~catenary.section.inclined_dropper`)."""
         k = np.where(taut, self.dropper_stiffness_n_m, 0.0)
         c, m = self.dropper_cw_dof, self.dropper_mw_dof
         rows = np.concatenate([c, m, c, m])
@@ -210,7 +213,7 @@ class StaticModel:
         vals = np.concatenate([k, k, -k, -k])
         kd = sp.csr_matrix((vals, (rows, cols)), shape=(self.n_dofs, self.n_dofs))
         f = np.zeros(self.n_dofs)
-        kl = k * self.section.dropper_lengths_m
+        kl = k * self.dropper_rest_length_m
         np.add.at(f, c, -kl)
         np.add.at(f, m, kl)
         return kd, f
@@ -242,7 +245,7 @@ class StaticModel:
         seen = set()
         for iteration in range(1, max_iterations + 1):
             u, k_total, f_total = self._linear_solve(taut, f_ext)
-            elongation = u[self.dropper_mw_dof] - u[self.dropper_cw_dof] - self.section.dropper_lengths_m
+            elongation = u[self.dropper_mw_dof] - u[self.dropper_cw_dof] - self.dropper_rest_length_m
             new_taut = elongation > 0.0
             if np.array_equal(new_taut, taut):
                 break

@@ -14,6 +14,8 @@ them; tensions per section.
 
 from __future__ import annotations
 
+import inspect
+
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -161,6 +163,14 @@ def truth_from_dict(raw: Mapping[str, Any], catenary: Catenary, where: str = "ca
         if name not in EFFECTS:
             raise ConfigError(f"{w}.name: unknown effect {name!r}; known: {', '.join(EFFECTS)}")
         magnitude = {k: float(v) for k, v in e.items() if k != "name"}
+        accepted = inspect.signature(EFFECTS[name]).parameters
+        keys = [k for k, q in accepted.items() if q.kind is inspect.Parameter.KEYWORD_ONLY]
+        required = [k for k in keys if accepted[k].default is inspect.Parameter.empty]
+        unknown = sorted(set(magnitude) - set(keys))
+        missing = sorted(set(required) - set(magnitude))
+        if unknown or missing:
+            raise ConfigError(f"{w}: effect {name!r} takes magnitudes {keys} (required {required}); "
+                              f"unknown {unknown}, missing {missing}")
         effects.append((name, magnitude))
     m = get(raw, "measurement", where)
     mw = f"{where}.measurement"
@@ -262,7 +272,8 @@ def draw_line(spec: TruthSpec, catenary: Catenary) -> Line:
     params = SpanParameters(
         dropper_lengths_m=lengths, system_height_left_m=dh[left], system_height_right_m=dh[left + 1],
         system_height_mean_m=dh_mean, messenger_tension_n=t_mw, contact_tension_n=t_cw,
-        section_index=section_index, measuring_force_n=spec.measurement.force_n, creep_offset_m=np.zeros(n_spans))
+        section_index=section_index, measuring_force_n=spec.measurement.force_n, creep_offset_m=np.zeros(n_spans),
+        cw_offset_m=np.zeros(n_spans))
     for name, magnitude in spec.hidden_effects:
         EFFECTS[name](params, rng, **magnitude)
     if np.any(params.dropper_lengths_m[~np.isnan(params.dropper_lengths_m)] <= 0):

@@ -88,7 +88,8 @@ def test_bad_truth_names_the_key(raw, catenary, mutate, key):
 
 
 def test_simulated_section_is_consistent_and_deterministic(raw, catenary):
-    r = small(raw, [{"name": "measuring_force_offset", "force_n": 4.0}], n_spans=3)
+    r = small(raw, [{"name": "measuring_force_offset", "force_n": 4.0},
+                    {"name": "cw_longitudinal_offset", "mean_m": 0.1}], n_spans=3)
     r["measurement"]["mode"] = "quasi_static"
     r["measurement"]["dropout_rate_per_km"] = 0.0
     r["measurement"]["spike_rate_per_km"] = 0.0
@@ -101,6 +102,7 @@ def test_simulated_section_is_consistent_and_deterministic(raw, catenary):
     section, _ = section_model(line, 0, catenary)
     w = solve_static(section, catenary).dropper_deflection_m().reshape(3, 9)
     np.testing.assert_allclose(truth.filter(like="static_w").to_numpy(), w, atol=1e-12)
+    np.testing.assert_array_equal(truth["cw_offset_m"], 0.1)  # inclined droppers, in the static W above
     assert truth["measuring_force_n"].iloc[0] == 40.0
     assert rec["force_n"].iloc[0] == 36.0                   # the car reports the declared force
     # Under 40 N the wire is lifted: the dynamic (here quasi-static) W lies above the static one mid-span.
@@ -155,3 +157,21 @@ def test_round_trip_through_ingestion_and_projection(raw, catenary, tmp_path):
     for span_type, spans in result.spans.items():
         figures = projection_round_trip(spans, truth)
         assert figures["rms_vs_dynamic_m"] < 1e-3, (span_type, figures)
+
+
+def test_cw_longitudinal_offset_inclines_every_dropper_of_a_span(raw, catenary):
+    # 2000 spans: mean within 4 standard errors (σ/√n), σ within 4 × 1.6 %.
+    effect = {"name": "cw_longitudinal_offset", "mean_m": 0.05, "std_m": 0.03}
+    line = draw_line(truth_from_dict(small(raw, [effect], n_spans=2000), catenary), catenary)
+    delta = line.params.cw_offset_m
+    assert np.mean(delta) == pytest.approx(0.05, abs=4 * 0.03 / np.sqrt(2000))
+    assert np.std(delta, ddof=1) == pytest.approx(0.03, rel=4 * 0.016)
+    section, spans = section_model(line, 0, catenary)
+    np.testing.assert_array_equal(section.dropper_offset_m, np.repeat(delta[spans], 9))
+
+
+def test_effect_magnitudes_are_checked_against_the_effect(raw, catenary):
+    with pytest.raises(ConfigError, match=r"hidden_effects\[0\].*'cw_longitudinal_offset'.*unknown \['std'\]"):
+        truth_from_dict(small(raw, [{"name": "cw_longitudinal_offset", "mean_m": 0.05, "std": 0.01}]), catenary)
+    with pytest.raises(ConfigError, match=r"missing \['std_n'\]"):
+        truth_from_dict(small(raw, [{"name": "messenger_tension_variability"}]), catenary)
