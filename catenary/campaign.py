@@ -194,6 +194,6 @@ def correction_round_trip(corrected: pd.DataFrame, spans: pd.DataFrame, truth: p
         "n_converged": float(len(ok)),
         "rms_corrected_vs_static_m": float(np.sqrt(np.mean(error ** 2))) if len(merged) else float("nan"),
         "max_abs_corrected_vs_static_m": float(np.max(np.abs(error))) if len(merged) else float("nan"),
-        "max_span_rms_corrected_vs_static_m": float(np.max(per_span, initial=np.nan)),
+        "max_span_rms_corrected_vs_static_m": float(np.max(per_span)) if per_span.size else float("nan"),
         "rms_uncorrected_vs_static_m": float(np.sqrt(np.mean(raw_error ** 2))) if len(raw) else float("nan"),
     }

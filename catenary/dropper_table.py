@@ -7,6 +7,12 @@ heights, and each unstretched length follows from Hooke's law,
 each wire depends on ``L``, so the three steps are repeated until the lengths stop changing
 (a contraction: two or three passes reach 1e-12 m). The same solver builds the nominal
 dropper table, updates dropper lengths in the dynamic correction and inverts measured spans.
+
+A target that would need a dropper in compression has no taut solution. With
+``allow_slack=True`` such droppers are made slack instead: their CW height is released (the
+wire hangs there from its neighbours) and their length is set ``SLACK_MARGIN_M`` longer than
+the distance between the wires, so they stay slack under an uplift; the others are solved
+again, until every prescribed dropper pulls.
 """
 
 from __future__ import annotations
@@ -33,11 +39,17 @@ class InverseResult:
         Dropper tensions at equilibrium [N].
     section : Section
         The section with those lengths.
+    slack : numpy.ndarray of bool
+        Droppers made slack (their target height released); all False unless ``allow_slack``.
     """
 
     dropper_lengths_m: np.ndarray
     dropper_force_n: np.ndarray
     section: Section
+    slack: np.ndarray
+
+#: A dropper made slack by the inverse solver is this much longer than the wire distance [m].
+SLACK_MARGIN_M = 0.01
 
 
 def presag_deflection_m(span_type: SpanType, x_m: np.ndarray) -> np.ndarray:
@@ -50,7 +62,8 @@ def presag_deflection_m(span_type: SpanType, x_m: np.ndarray) -> np.ndarray:
 
 
 def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heights_m: np.ndarray, *,
-                                   tolerance_m: float = 1e-12, max_iterations: int = 20) -> InverseResult:
+                                   tolerance_m: float = 1e-12, max_iterations: int = 20,
+                                   allow_slack: bool = False) -> InverseResult:
     """Unstretched dropper lengths giving the CW heights ``cw_heights_m`` at every dropper.
 
     Parameters
@@ -60,11 +73,15 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
     catenary : Catenary
     cw_heights_m : array_like
         Target CW height at each dropper's CW clamp [m] (at the dropper for vertical ones).
+    allow_slack : bool
+        Make droppers slack where the target needs compression (module docstring), instead of
+        raising.
 
     Raises
     ------
     ValueError
-        If the target needs a dropper in compression (no taut solution exists).
+        If the target needs a dropper in compression (no taut solution exists) and
+        ``allow_slack`` is False.
     ConvergenceError
         If the lengths do not settle (should not happen: the weight coupling is weak).
     """
@@ -74,33 +91,41 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
     ea = catenary.droppers.axial_stiffness_n
     lengths = section.dropper_lengths_m.copy()
     no_droppers = np.zeros(lengths.size, dtype=bool)
+    slack = np.zeros(lengths.size, dtype=bool)
     for _ in range(max_iterations):
         model = StaticModel(section.with_dropper_lengths(lengths), catenary)
-        # CW with its dropper points prescribed: the reactions there are the dropper tensions.
-        u, k, f = model._linear_solve(no_droppers, model.f_gravity, model.dropper_cw_dof, target)
-        force = (k @ u - f)[model.dropper_cw_dof]
-        if np.any(force <= 0):
-            bad = np.flatnonzero(force <= 0).tolist()
-            raise ValueError(f"target CW profile needs droppers {bad} in compression "
-                             f"(forces {force[bad]} N); no taut dropper lengths produce it")
+        # CW with its (pulling) dropper points prescribed: the reactions there are the dropper tensions.
+        while True:
+            held = ~slack
+            u, k, f = model._linear_solve(no_droppers, model.f_gravity, model.dropper_cw_dof[held], target[held])
+            force = np.where(held, (k @ u - f)[model.dropper_cw_dof], 0.0)
+            pushing = held & (force <= 0)
+            if not np.any(pushing):
+                break
+            if not allow_slack:
+                bad = np.flatnonzero(pushing).tolist()
+                raise ValueError(f"target CW profile needs droppers {bad} in compression "
+                                 f"(forces {force[bad]} N); no taut dropper lengths produce it")
+            slack |= pushing
         # MW under its weight and the dropper tensions.
         loads = model.f_gravity.copy()
         np.add.at(loads, model.dropper_mw_dof, -force)
         np.add.at(loads, model.dropper_cw_dof, force)
-        u, _, _ = model._linear_solve(no_droppers, loads)
-        stretched = u[model.dropper_mw_dof] - target
+        u_mw, _, _ = model._linear_solve(no_droppers, loads)
+        stretched = u_mw[model.dropper_mw_dof] - np.where(slack, u[model.dropper_cw_dof], target)
         if np.any(section.clamp_offset_m):
             vertical = stretched - force / model.dropper_stiffness_n_m  # fixed point: k_v depends on L
             new = np.sqrt(vertical ** 2 + section.clamp_offset_m ** 2)
         else:
             new = stretched * ea / (ea + force)
+        new = np.where(slack, np.sqrt((stretched + SLACK_MARGIN_M) ** 2 + section.clamp_offset_m ** 2), new)
         change = np.max(np.abs(new - lengths))
         lengths = new
         if change < tolerance_m:
             break
     else:
         raise ConvergenceError(f"dropper lengths did not settle in {max_iterations} passes (last change {change:.3g} m)")
-    return InverseResult(lengths, force, section.with_dropper_lengths(lengths))
+    return InverseResult(lengths, force, section.with_dropper_lengths(lengths), slack)
 
 
 def nominal_dropper_lengths(span_type: SpanType, catenary: Catenary) -> InverseResult:

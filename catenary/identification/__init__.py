@@ -4,7 +4,11 @@
 * :mod:`.likelihood` — J(s) = Σ_k ln p_W(W_k; s) with a Gaussian or kernel estimate of p_W;
 * :mod:`.fit` — maximisation of J (Nelder–Mead or BOBYQA) and standard errors;
 * :mod:`.result` — the s_opt table, the J trace and confidence intervals;
-* :mod:`.synthetic` — synthetic measured deflections from known laws.
+* :mod:`.synthetic` — synthetic measured deflections from known laws;
+* :mod:`.settings` — the ``identification`` block of the workflow config;
+* :mod:`.band` — the CW deflection along the span and its band under given laws (Fig. 10);
+* :mod:`.report` — one span type's run (J, s_opt, normality, estimators, band) and its report;
+* :mod:`.figures`, :mod:`.outputs` — the rule's figures and files.
 
 Typical use::
 

@@ -50,3 +50,45 @@ def measurement_outputs():
     if config["recording"].startswith(f"{RESULTS}/campaign/"):
         outputs.append(f"{RESULTS}/validation/projection_round_trip.csv")
     return outputs
+
+
+def identification_outputs():
+    """Outputs of rule identify (workflow/rules/identification.smk), one folder per span type."""
+    return expand(
+        [
+            f"{RESULTS}/{{span_type}}/identification/{name}"
+            for name in ("s_opt.csv", "trace.parquet", "estimators.png", "normality.json", "band.png",
+                         "identification.md")
+        ],
+        span_type=SPAN_TYPES,
+    )
+
+
+def inversion_outputs():
+    """Dropper-only inversion (paper §4.1) and the T_MW impact check (Fig. 6), rules in inversion.smk."""
+    return expand(
+        [
+            f"{RESULTS}/{{span_type}}/inversion/droppers.parquet",
+            f"{RESULTS}/{{span_type}}/inversion/table1.csv",
+            f"{RESULTS}/{{span_type}}/inversion/pearson.png",
+            f"{RESULTS}/{{span_type}}/tension_impact/summary.csv",
+            f"{RESULTS}/{{span_type}}/tension_impact/tension_impact.png",
+        ],
+        span_type=SPAN_TYPES,
+    )
+
+
+def correction_sections(wildcards=None):
+    """Section ids of the projected spans (known once the projection checkpoint has run)."""
+    import pyarrow.parquet as pq
+
+    outputs = checkpoints.project.get().output.spans
+    return sorted({s for path in outputs for s in pq.read_table(path, columns=["section_id"]).column(0).to_pylist()})
+
+
+def correction_outputs():
+    outputs = expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES)
+    outputs += [f"{RESULTS}/correction/convergence.csv", f"{RESULTS}/correction/summary.csv"]
+    if config["recording"].startswith(f"{RESULTS}/campaign/"):
+        outputs.append(f"{RESULTS}/validation/correction_check.csv")
+    return outputs

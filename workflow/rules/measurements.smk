@@ -51,7 +51,7 @@ rule ingest:
         "../../scripts/ingest.py"
 
 
-rule project:
+checkpoint project:
     """Cut into spans, estimate W at the droppers, report every span used or rejected."""
     input:
         recording=f"{RESULTS}/ingest/recording.parquet",

@@ -1,0 +1,371 @@
+"""Iterative dynamic correction of measured spans (paper §2.2, Fig. 5; SPEC §7).
+
+The recording car reports the contact-wire height under a pantograph pushing ≈36 N, not the
+static geometry. For each run of consecutive measured spans (a section, or the part of it
+between rejected spans) a model is built with the exact span lengths and the measured support
+heights, and iterated:
+
+1. simulate the measuring pass over the model (dynamic or quasi-static,
+   :func:`catenary.measuring.measuring_pass`);
+2. gap = measured − simulated CW height, at the droppers and at the steady arms;
+3. if every span's gap norm ``√Σ_i (gap W_i)²`` is below the tolerance, stop;
+4. else move the model's static CW by the gap: the steady-arm heights by the gap at the masts,
+   the dropper lengths by the exact inverse static solver
+   (:func:`catenary.dropper_table.dropper_lengths_for_cw_heights`) so that the static CW at the
+   droppers moves by the gap there; go to 1.
+
+The corrected static W of a span is that of the model whose simulated pass last matched the
+measurement. The gap in W is the gap in height minus its chord between the span's two steady
+arms, so an error common to a whole span's heights does not count. Tensions and system heights
+stay at their design values: they are what the identification later treats as random.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+import pandas as pd
+
+from .config import Catenary
+from .dropper_table import dropper_lengths_for_cw_heights
+from .errors import ConfigError, ConvergenceError, InputError
+from .measuring import MODES, measuring_pass
+from .pantograph import Pantograph
+from .section import Section
+from .static import StaticModel
+
+#: Largest mismatch [m] between the end of a span and the start of the next for them to be
+#: modelled as one run of consecutive spans (the projection copies the masts' chainages).
+CONTIGUITY_TOLERANCE_M = 1e-6
+
+
+@dataclass(frozen=True)
+class CorrectionSettings:
+    """Settings of the correction loop (config key ``correction``).
+
+    Attributes
+    ----------
+    mode : {"dynamic", "quasi_static"}
+        Simulated measuring pass.
+    time_step_s : float
+        Integration step of the dynamic pass [s].
+    tolerance_m : float
+        A span has converged when its gap norm is below this [m] (paper: 1 mm).
+    max_iterations : int
+        Largest number of simulated passes per run.
+    pantograph : str
+        Name of the measuring pantograph in the pantographs file.
+    speed_kmh, force_n : float
+        Measuring speed [km/h] and static force [N] where the recording has no ``speed_kmh`` /
+        ``force_n`` column (otherwise the median over each run's samples is used).
+    quasi_static_start : bool
+        In dynamic mode, first iterate with quasi-static passes to a tenth of the tolerance:
+        they cost ≈ 1/10 of a dynamic pass and leave ≈ 0.5 mm for the dynamic passes.
+    """
+
+    mode: str = "dynamic"
+    time_step_s: float = 0.002
+    tolerance_m: float = 1e-3
+    max_iterations: int = 5
+    pantograph: str = "measuring"
+    speed_kmh: float = 40.0
+    force_n: float = 36.0
+    quasi_static_start: bool = True
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ConfigError(f"correction.mode: expected one of {MODES}, got {self.mode!r}")
+        for name in ("time_step_s", "tolerance_m", "speed_kmh", "force_n"):
+            value = getattr(self, name)
+            if not np.isfinite(value) or value <= 0:
+                raise ConfigError(f"correction.{name}: expected a number > 0, got {value!r}")
+        if int(self.max_iterations) != self.max_iterations or self.max_iterations < 1:
+            raise ConfigError(f"correction.max_iterations: expected an integer ≥ 1, got {self.max_iterations!r}")
+
+    @classmethod
+    def from_mapping(cls, mapping: Mapping[str, Any] | None) -> "CorrectionSettings":
+        """Settings from the config block; unknown keys are refused."""
+        mapping = dict(mapping or {})
+        unknown = sorted(set(mapping) - set(cls.__dataclass_fields__))
+        if unknown:
+            raise ConfigError(f"correction: unknown keys {unknown}; known: {sorted(cls.__dataclass_fields__)}")
+        return cls(**mapping)
+
+
+@dataclass
+class RunCorrection:
+    """Outcome of the correction of one run of consecutive spans.
+
+    Attributes
+    ----------
+    span_id : numpy.ndarray
+        The run's spans, in chainage order.
+    static_w_m : numpy.ndarray
+        Corrected static W, (n_spans, n_droppers) [m] (NaN beyond a span's droppers).
+    gap_norm_m : numpy.ndarray
+        Final gap norm of each span [m].
+    iterations : int
+        Simulated passes made in the settings' mode (the quasi-static start not counted).
+    history : list of (str, numpy.ndarray)
+        Mode and gap norm of each span after each pass [m].
+    dropper_lengths_m : numpy.ndarray
+        Dropper lengths of the final model [m] (all droppers of the run).
+    failure : str
+        Empty, or why the run could not be corrected.
+    slack_droppers : numpy.ndarray
+        Droppers per span that the final model needs slack (the measured CW there lies higher
+        than the neighbours let a taut dropper hold it).
+    """
+
+    span_id: np.ndarray
+    static_w_m: np.ndarray
+    gap_norm_m: np.ndarray
+    iterations: int
+    history: list = field(default_factory=list)
+    dropper_lengths_m: np.ndarray | None = None
+    failure: str = ""
+    slack_droppers: np.ndarray | None = None
+
+
+def consecutive_runs(spans: pd.DataFrame) -> list[pd.DataFrame]:
+    """Split projected spans into runs of consecutive spans of one section.
+
+    Parameters
+    ----------
+    spans : pandas.DataFrame
+        Rows of the projection's ``spans.parquet`` (any span types), with ``span_type``.
+
+    Returns
+    -------
+    list of pandas.DataFrame
+        Each sorted by chainage; a run ends at a section change or where a span is missing
+        (rejected by the projection).
+    """
+    runs = []
+    for _, rows in spans.sort_values("start_chainage_m").groupby("section_id", sort=True):
+        rows = rows.reset_index(drop=True)
+        breaks = np.flatnonzero(np.abs(rows["start_chainage_m"].to_numpy()[1:]
+                                       - rows["end_chainage_m"].to_numpy()[:-1]) > CONTIGUITY_TOLERANCE_M) + 1
+        for part in np.split(np.arange(len(rows)), breaks):
+            runs.append(rows.iloc[part].reset_index(drop=True))
+    return runs
+
+
+def measured_heights(rows: pd.DataFrame, section: Section) -> tuple[np.ndarray, np.ndarray]:
+    """Measured CW heights of a run at its droppers (chord + W) and at its steady arms [m]."""
+    masts = np.append(rows["cw_height_left_m"].to_numpy(dtype=float), rows["cw_height_right_m"].iloc[-1])
+    w = np.concatenate([rows.loc[k, [f"w{i + 1}_m" for i in range(int(n))]].to_numpy(dtype=float)
+                        for k, n in enumerate(np.bincount(section.dropper_span, minlength=len(rows)))])
+    return chord_at_droppers(section, masts) + w, masts
+
+
+def chord_at_droppers(section: Section, values_at_masts: np.ndarray) -> np.ndarray:
+    """Per-mast values interpolated linearly along each span to its droppers."""
+    span = section.dropper_span
+    frac = section.dropper_x_m / section.span_lengths_m[span]
+    return values_at_masts[span] + frac * (values_at_masts[span + 1] - values_at_masts[span])
+
+
+def run_section(rows: pd.DataFrame, catenary: Catenary, dropper_lengths_m: np.ndarray | None = None) -> Section:
+    """Model of a run: exact span lengths, the span types' dropper positions, design tensions and
+    system heights, measured steady-arm heights; droppers at ``dropper_lengths_m`` (default: the
+    system height, a starting guess for the inverse solver)."""
+    types = [catenary.span_type(t) for t in rows["span_type"]]
+    lengths = (rows["end_chainage_m"] - rows["start_chainage_m"]).to_numpy(dtype=float)
+    x = np.concatenate([t.dropper_positions_m for t in types])
+    span = np.repeat(np.arange(len(types)), [t.n_droppers for t in types])
+    system = np.array([t.system_height_m for t in types])
+    masts = np.append(rows["cw_height_left_m"].to_numpy(dtype=float), rows["cw_height_right_m"].iloc[-1])
+    return Section(
+        span_lengths_m=lengths, dropper_span=span, dropper_x_m=x,
+        dropper_lengths_m=system[span] if dropper_lengths_m is None else dropper_lengths_m,
+        cw_support_heights_m=masts, system_heights_m=np.append(system, system[-1]),
+        contact_tension_n=np.array([t.contact_tension_n for t in types]),
+        messenger_tension_n=np.array([t.messenger_tension_n for t in types]))
+
+
+def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, speed_m_s: float,
+                settings: CorrectionSettings) -> RunCorrection:
+    """Correct one run of consecutive spans (module docstring).
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        The run's projected spans in chainage order (``span_type``, chainages, ``cw_height_left_m``,
+        ``cw_height_right_m``, ``w1_m``…).
+    catenary : Catenary
+    pantograph : Pantograph
+        The measuring pantograph, at the recording's static force.
+    speed_m_s : float
+        Measuring speed [m/s].
+    settings : CorrectionSettings
+
+    Returns
+    -------
+    RunCorrection
+        ``failure`` says why when no taut model reproduces the measurement.
+    """
+    span_ids = rows["span_id"].to_numpy()
+    section = run_section(rows, catenary)
+    n_d = np.bincount(section.dropper_span, minlength=len(rows))
+    measured_d, measured_m = measured_heights(rows, section)
+    points = np.concatenate([section.dropper_chainage_m, section.mast_chainage_m])
+    static_d = measured_d.copy()       # first guess: the measurement is static
+    history: list[tuple[str, np.ndarray]] = []
+    empty = np.full((len(rows), n_d.max()), np.nan)
+    stages = [(settings.mode, settings.tolerance_m)]
+    if settings.mode == "dynamic" and settings.quasi_static_start:
+        # Quasi-static passes are ~10× cheaper and land within ≈ 0.5 mm of the dynamic answer.
+        stages.insert(0, ("quasi_static", 0.1 * settings.tolerance_m))
+    try:
+        for mode, tolerance in stages:
+            for _ in range(settings.max_iterations):
+                if history:          # move the static CW by the last gap
+                    section = section.with_cw_support_heights(section.cw_support_heights_m + gap_m)
+                    static_d = static_d + gap_d
+                inverse = dropper_lengths_for_cw_heights(section, catenary, static_d, allow_slack=True)
+                section = inverse.section
+                simulated = measuring_pass(section, catenary, pantograph, speed_m_s=speed_m_s, mode=mode,
+                                           time_step_s=settings.time_step_s, chainage_m=points).height_m
+                gap_d = measured_d - simulated[:measured_d.size]
+                gap_m = measured_m - simulated[measured_d.size:]
+                gap_w = gap_d - chord_at_droppers(section, gap_m)
+                norms = np.sqrt(np.bincount(section.dropper_span, gap_w ** 2, minlength=len(rows)))
+                history.append((mode, norms))
+                if np.all(norms < tolerance):
+                    break
+    except (ValueError, ConvergenceError) as exc:
+        return RunCorrection(span_ids, empty, np.full(len(rows), np.nan), _passes(history, settings.mode),
+                             history, failure=f"no taut model reproduces the measurement ({exc})")
+    # Static W of the last simulated model (at slack droppers the CW hangs below its target).
+    w = StaticModel(section, catenary).solve().dropper_deflection_m()
+    static_w = empty.copy()
+    for k in range(len(rows)):
+        static_w[k, :n_d[k]] = w[section.dropper_span == k]
+    slack = np.bincount(section.dropper_span, inverse.slack, minlength=len(rows)).astype(int)
+    return RunCorrection(span_ids, static_w, history[-1][1], _passes(history, settings.mode), history,
+                         section.dropper_lengths_m, slack_droppers=slack)
+
+
+def _passes_to_converge(history: list[tuple[str, np.ndarray]], settings: CorrectionSettings) -> np.ndarray:
+    """Per span: passes in the settings' mode until its gap first fell below the tolerance (all
+    passes made when it never did). The run goes on while any of its spans is above."""
+    norms = np.array([n for m, n in history if m == settings.mode])
+    if norms.size == 0:
+        return np.zeros(history[0][1].size if history else 0, dtype=int)
+    below = norms < settings.tolerance_m
+    return np.where(below.any(axis=0), below.argmax(axis=0) + 1, norms.shape[0])
+
+
+def _passes(history: list[tuple[str, np.ndarray]], mode: str) -> int:
+    return sum(m == mode for m, _ in history)
+
+
+def measuring_conditions(recording: pd.DataFrame, rows: pd.DataFrame,
+                         settings: CorrectionSettings) -> tuple[float, float]:
+    """Speed [m/s] and static force [N] of the measuring pass over a run: the medians of the
+    recording's ``speed_kmh`` and ``force_n`` between the run's first and last mast, or the
+    settings' values where the recording has no such column (or only missing values there)."""
+    inside = recording["chainage_m"].between(rows["start_chainage_m"].iloc[0], rows["end_chainage_m"].iloc[-1])
+    values = []
+    for column, default in (("speed_kmh", settings.speed_kmh), ("force_n", settings.force_n)):
+        data = recording.loc[inside, column].dropna() if column in recording else pd.Series(dtype=float)
+        value = float(data.median()) if len(data) else default
+        if not np.isfinite(value) or value <= 0:
+            raise InputError(f"recording: column {column} must be > 0 over the spans "
+                             f"{rows['span_id'].iloc[0]}…{rows['span_id'].iloc[-1]}; median {value}")
+        values.append(value)
+    return values[0] / 3.6, values[1]
+
+
+CORRECTED_BASE_COLUMNS = ["span_id", "section_id", "span_type", "start_chainage_m", "end_chainage_m", "length_m"]
+
+
+def correct_spans(spans: pd.DataFrame, recording: pd.DataFrame, catenary: Catenary, pantograph: Pantograph,
+                  settings: CorrectionSettings, log=None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Correct every run of consecutive spans in ``spans`` (module docstring).
+
+    Parameters
+    ----------
+    spans : pandas.DataFrame
+        Projected spans (rows of the projection's ``spans.parquet`` with ``span_type``).
+    recording : pandas.DataFrame
+        The ingested recording (for the measuring speed and force).
+    catenary : Catenary
+    pantograph : Pantograph
+        The measuring pantograph; its static force is set to the recording's force.
+    settings : CorrectionSettings
+    log : logging.Logger, optional
+
+    Returns
+    -------
+    corrected : pandas.DataFrame
+        One row per input span: identifiers, the corrected static ``w1_m``…, ``iterations``,
+        ``gap_norm_m``, ``converged`` and ``reason`` (empty when converged).
+    convergence : pandas.DataFrame
+        The gap norm of every span after every simulated pass.
+    """
+    n_max = max(catenary.span_type(t).n_droppers for t in spans["span_type"].unique()) if len(spans) else 0
+    rows_out, history_out = [], []
+    for rows in consecutive_runs(spans):
+        speed, force = measuring_conditions(recording, rows, settings)
+        result = correct_run(rows, catenary, pantograph.with_static_force(force), speed, settings)
+        converged = np.isfinite(result.gap_norm_m) & (result.gap_norm_m < settings.tolerance_m)
+        passes = _passes_to_converge(result.history, settings)
+        for k in range(len(rows)):
+            reason = result.failure or ("" if converged[k] else
+                                        f"gap {result.gap_norm_m[k] * 1e3:.2f} mm after {result.iterations} passes")
+            row = {c: rows.loc[k, c] for c in CORRECTED_BASE_COLUMNS}
+            row.update({f"w{i + 1}_m": result.static_w_m[k, i] if i < result.static_w_m.shape[1] else np.nan
+                        for i in range(n_max)})
+            row.update(iterations=int(passes[k]), gap_norm_m=result.gap_norm_m[k], converged=bool(converged[k]),
+                       slack_droppers=0 if result.slack_droppers is None else int(result.slack_droppers[k]),
+                       reason=reason)
+            rows_out.append(row)
+        for it, (mode, norms) in enumerate(result.history, start=1):
+            for k in range(len(rows)):
+                history_out.append({"section_id": rows.loc[k, "section_id"], "span_id": rows.loc[k, "span_id"],
+                                    "iteration": it, "mode": mode, "gap_norm_m": norms[k]})
+        if log is not None:
+            log.info("section %s, spans %s…%s: %d %s passes (%d in all) at %.1f km/h and %.1f N, gap max %.3f mm%s",
+                     rows["section_id"].iloc[0], rows["span_id"].iloc[0], rows["span_id"].iloc[-1],
+                     result.iterations, settings.mode, len(result.history), speed * 3.6, force,
+                     _nanmax(result.gap_norm_m) * 1e3,
+                     f"; FAILED: {result.failure}" if result.failure else "")
+    columns = CORRECTED_BASE_COLUMNS + [f"w{i + 1}_m" for i in range(n_max)] + [
+        "iterations", "gap_norm_m", "converged", "slack_droppers", "reason"]
+    corrected = pd.DataFrame(rows_out, columns=columns)
+    convergence = pd.DataFrame(history_out, columns=["section_id", "span_id", "iteration", "mode", "gap_norm_m"])
+    return corrected, convergence
+
+
+def corrected_schema(columns) -> "pa.Schema":
+    """Arrow schema of ``corrected.parquet``: identifiers as strings, ``iterations`` and
+    ``slack_droppers`` int64, ``converged`` bool, every other column float64 (lengths in [m])."""
+    import pyarrow as pa
+
+    kinds = {"span_id": pa.string(), "section_id": pa.string(), "span_type": pa.string(), "reason": pa.string(),
+             "iterations": pa.int64(), "slack_droppers": pa.int64(), "converged": pa.bool_()}
+    return pa.schema([pa.field(c, kinds.get(c, pa.float64())) for c in columns])
+
+
+def correction_summary(corrected: pd.DataFrame, convergence: pd.DataFrame) -> pd.DataFrame:
+    """Per span type: spans, converged spans, the share converged within 3 passes [%], the
+    median number of passes and the largest final gap [m]."""
+    rows = []
+    for span_type, table in corrected.groupby("span_type", sort=True):
+        ok = table["converged"].to_numpy(dtype=bool)
+        rows.append({"span_type": span_type, "n_spans": len(table), "n_converged": int(ok.sum()),
+                     "converged_within_3_percent": 100.0 * float(np.mean(ok & (table["iterations"] <= 3))),
+                     "median_iterations": float(np.median(table["iterations"])),
+                     "max_gap_norm_m": _nanmax(table["gap_norm_m"].to_numpy(dtype=float))})
+    return pd.DataFrame(rows, columns=["span_type", "n_spans", "n_converged", "converged_within_3_percent",
+                                       "median_iterations", "max_gap_norm_m"])
+
+
+def _nanmax(values: np.ndarray) -> float:
+    finite = np.asarray(values, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    return float(finite.max()) if finite.size else float("nan")

@@ -1,0 +1,30 @@
+"""Rule correct_section: iterative dynamic correction of one section's spans (paper Fig. 5)."""
+
+from pathlib import Path
+
+import pandas as pd
+
+from catenary.config import load_catenary
+from catenary.correction import CorrectionSettings, correct_spans, corrected_schema
+from catenary.logs import rule_logger
+from catenary.pantograph import load_pantographs
+from catenary.parquet import config_hash, read_table, write_table
+
+log = rule_logger("correct_section", snakemake.log[0])
+section_id = snakemake.wildcards.section_id
+catenary = load_catenary(snakemake.input.catenary)
+settings = CorrectionSettings.from_mapping(snakemake.params.correction)
+pantograph = load_pantographs(snakemake.input.pantographs)[settings.pantograph]
+spans = []
+for span_type, path in zip(snakemake.params.span_types, snakemake.input.spans):
+    table = read_table(path)
+    spans.append(table[table["section_id"] == section_id].assign(span_type=span_type))
+spans = pd.concat(spans, ignore_index=True)
+recording = read_table(snakemake.input.recording)
+log.info("section %s: %d spans, %s pass, tolerance %.2f mm", section_id, len(spans), settings.mode,
+         settings.tolerance_m * 1e3)
+corrected, convergence = correct_spans(spans, recording, catenary, pantograph, settings, log=log)
+write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
+            config_hash=config_hash(snakemake.config), kind="corrected_section")
+convergence.to_csv(snakemake.output.convergence, index=False)
+log.info("section %s: %d of %d spans converged", section_id, int(corrected["converged"].sum()), len(corrected))

@@ -1,0 +1,30 @@
+"""Rule identify: maximum-likelihood identification of one span type's input laws (SPEC §6)."""
+
+from pathlib import Path
+
+from catenary.config import load_catenary
+from catenary.identification.outputs import IdentificationPaths, write_identification
+from catenary.identification.report import read_corrected, run_identification
+from catenary.identification.settings import IdentificationSettings
+from catenary.logs import rule_logger
+from catenary.parquet import config_hash
+
+log = rule_logger("identify", snakemake.log[0])
+catenary = load_catenary(snakemake.input.catenary)
+span_type = catenary.span_type(snakemake.wildcards.span_type)
+settings = IdentificationSettings.from_mapping(snakemake.params.identification)
+log.info("settings: %s", settings.as_dict())
+data = read_corrected(snakemake.input.corrected, span_type)
+log.info("%s: %d converged spans used, %d left out", span_type.name, data.w_m.shape[0], len(data.left_out))
+for span_id, why in data.left_out:
+    log.info("left out %s: %s", span_id, why)
+run = run_identification(span_type, catenary, data.w_m, settings, left_out=data.left_out, log=log)
+out = snakemake.output
+write_identification(run, IdentificationPaths(s_opt=Path(out.s_opt), trace=Path(out.trace),
+                                              estimators=Path(out.estimators), normality=Path(out.normality),
+                                              band=Path(out.band), report=Path(out.report)),
+                     config_hash=config_hash(snakemake.config), source=Path(snakemake.input.corrected).name)
+for row in run.result.table_rows():
+    log.info("s_opt %-22s mu %.6g ± %.3g  sigma %.4g ± %.3g%s", row["parameter"], row["mu"], row["mu_se"],
+             row["sigma"], row["sigma_se"], "  (mean fixed)" if row["mu_fixed"] else "")
+log.info("%s: done in %.1f s", span_type.name, run.total_time_s)

@@ -1,0 +1,64 @@
+# correction_sections() and correction_outputs() live in common.smk: the linter wants functions apart from rules.
+
+
+rule correct_section:
+    """Iterative dynamic correction of one section's spans (paper §2.2, Fig. 5)."""
+    input:
+        spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
+        recording=f"{RESULTS}/ingest/recording.parquet",
+        catenary=config["catenary"],
+        pantographs=config["pantographs"],
+    output:
+        corrected=f"{RESULTS}/correction/sections/{{section_id}}.parquet",
+        convergence=f"{RESULTS}/correction/sections/{{section_id}}_convergence.csv",
+    wildcard_constraints:
+        section_id="[^/]+",
+    params:
+        correction=config["correction"],
+        span_types=SPAN_TYPES,
+    log:
+        f"{RESULTS}/logs/correct_section/{{section_id}}.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/correct_section.py"
+
+
+rule correction:
+    """Gather the corrected sections: static W per span type and the convergence log."""
+    input:
+        sections=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}.parquet",
+                                   section_id=correction_sections()),
+        convergence=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}_convergence.csv",
+                                      section_id=correction_sections()),
+        catenary=config["catenary"],
+    output:
+        corrected=expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES),
+        convergence=f"{RESULTS}/correction/convergence.csv",
+        summary=f"{RESULTS}/correction/summary.csv",
+    params:
+        span_types=SPAN_TYPES,
+    log:
+        f"{RESULTS}/logs/correction.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/correction.py"
+
+
+rule correction_check:
+    """Validation only: corrected and uncorrected W against the campaign's true static W."""
+    input:
+        corrected=expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES),
+        spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
+        truth=f"{RESULTS}/campaign/truth.parquet",
+    output:
+        summary=f"{RESULTS}/validation/correction_check.csv",
+    params:
+        span_types=SPAN_TYPES,
+    log:
+        f"{RESULTS}/logs/correction_check.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/correction_check.py"

@@ -1,0 +1,25 @@
+# identification_outputs() lives in common.smk (the linter wants no functions beside rules).
+
+
+rule identify:
+    """Stochastic identification of one span type (SPEC §6, paper §3–4.2): s_opt with standard
+    errors, the J trace, Gaussian vs kernel estimates (Fig. 7), Henze–Zirkler tests, the 98 %
+    band of the CW deflection (Fig. 10) and a report."""
+    input:
+        corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
+        catenary=config["catenary"],
+    output:
+        s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
+        trace=f"{RESULTS}/{{span_type}}/identification/trace.parquet",
+        estimators=f"{RESULTS}/{{span_type}}/identification/estimators.png",
+        normality=f"{RESULTS}/{{span_type}}/identification/normality.json",
+        band=f"{RESULTS}/{{span_type}}/identification/band.png",
+        report=f"{RESULTS}/{{span_type}}/identification/identification.md",
+    params:
+        identification=config["identification"],
+    log:
+        f"{RESULTS}/logs/identify/{{span_type}}.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/identify.py"

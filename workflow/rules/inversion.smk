@@ -1,0 +1,38 @@
+# inversion_outputs() (targets of rule all) lives in common.smk: the linter wants functions apart from rules.
+
+
+rule invert:
+    """Dropper-only inversion of the corrected spans (paper §4.1): Table 1 and Fig. 8 analogues."""
+    input:
+        corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
+        catenary=config["catenary"],
+    output:
+        droppers=f"{RESULTS}/{{span_type}}/inversion/droppers.parquet",
+        table1=f"{RESULTS}/{{span_type}}/inversion/table1.csv",
+        pearson=f"{RESULTS}/{{span_type}}/inversion/pearson.png",
+    params:
+        inversion=config["inversion"],
+    log:
+        f"{RESULTS}/logs/invert/{{span_type}}.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/invert.py"
+
+
+rule tension_impact:
+    """Paper Fig. 6: measured sags of two catenaries with the same static sag at two T_MW."""
+    input:
+        catenary=config["catenary"],
+        pantographs=config["pantographs"],
+    output:
+        summary=f"{RESULTS}/{{span_type}}/tension_impact/summary.csv",
+        figure=f"{RESULTS}/{{span_type}}/tension_impact/tension_impact.png",
+    params:
+        tension_impact=config["tension_impact"],
+    log:
+        f"{RESULTS}/logs/tension_impact/{{span_type}}.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/tension_impact.py"
