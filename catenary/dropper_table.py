@@ -103,9 +103,12 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
             if not np.any(pushing):
                 break
             if not allow_slack:
-                bad = np.flatnonzero(pushing).tolist()
-                raise ValueError(f"target CW profile needs droppers {bad} in compression "
-                                 f"(forces {force[bad]} N); no taut dropper lengths produce it")
+                bad = np.flatnonzero(pushing)
+                first = np.searchsorted(section.dropper_span, section.dropper_span[bad])
+                where = ", ".join(f"span {s + 1} dropper {i + 1}"
+                                  for s, i in zip(section.dropper_span[bad], bad - first))
+                raise ValueError(f"target CW profile needs {where} in compression "
+                                 f"(forces {np.round(force[bad], 3).tolist()} N); no taut dropper lengths produce it")
             slack |= pushing
         # MW under its weight and the dropper tensions.
         loads = model.f_gravity.copy()

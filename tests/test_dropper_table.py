@@ -46,5 +46,9 @@ def test_infeasible_profile_is_refused(catenary, n2):
     lengths = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
     target = n2.cw_height_m + presag_deflection_m(n2, n2.dropper_positions_m)
     target[4] += 0.05  # a 5 cm kink up at mid-span would need a pushing dropper beside it
-    with pytest.raises(ValueError, match="compression"):
+    with pytest.raises(ValueError, match=r"needs span 1 dropper [46].* in compression"):
         dropper_lengths_for_cw_heights(single_span(n2, lengths), catenary, target)
+    # With slack allowed, the droppers beside the kink are released and the rest still pull.
+    released = dropper_lengths_for_cw_heights(single_span(n2, lengths), catenary, target, allow_slack=True)
+    assert released.slack.any() and not released.slack[4]
+    assert np.all(released.dropper_force_n[~released.slack] > 0)
