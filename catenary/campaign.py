@@ -51,10 +51,7 @@ def _positions(catenary: Catenary, span_type: str) -> np.ndarray:
 def deflections_from_heights(section: Section, heights_at_droppers: np.ndarray, heights_at_masts: np.ndarray) -> np.ndarray:
     """W per span: heights at droppers minus the chord through the heights at the masts,
     shape (n_spans, n_droppers_per_span) [m]."""
-    span = section.dropper_span
-    frac = section.dropper_x_m / section.span_lengths_m[span]
-    chord = heights_at_masts[span] + frac * (heights_at_masts[span + 1] - heights_at_masts[span])
-    return (heights_at_droppers - chord).reshape(section.n_spans, -1)
+    return (heights_at_droppers - section.chord_at_droppers(heights_at_masts)).reshape(section.n_spans, -1)
 
 
 def simulate_section(line: Line, k: int, catenary: Catenary, pantograph: Pantograph, measurement: Measurement,

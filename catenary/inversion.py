@@ -279,9 +279,7 @@ def min_correlation(matrix: np.ndarray, first: int, last: int) -> float:
 
 def pearson_figure(matrix: np.ndarray, path: str | Path, title: str) -> Path:
     """Write the correlation matrix of the dropper lengths as an annotated heat map (PNG)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
+    from .plots import save_figure  # sets the Agg backend before pyplot loads
     import matplotlib.pyplot as plt
 
     m = np.asarray(matrix, dtype=float)
@@ -300,9 +298,4 @@ def pearson_figure(matrix: np.ndarray, path: str | Path, title: str) -> Path:
     ax.set_ylabel("dropper")
     ax.set_title(title, fontsize=10)
     fig.colorbar(image, ax=ax, label="Pearson correlation of dropper lengths")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)

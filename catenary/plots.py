@@ -51,7 +51,7 @@ def sensitivity_figures(result: SensitivityResult, out_dir: str | Path) -> list[
     for ax, names, title in ((axes[0], cw, "T_CW ±20 %"), (axes[1], mw, "T_MW ±20 %")):
         _span_axes(ax, result, f"{name}: {title}")
         _plot_w(ax, result, names)
-    paths.append(_save(fig, out_dir / "fig2_tensions.png"))
+    paths.append(save_figure(fig, out_dir / "fig2_tensions.png"))
 
     (sa,) = by_fig["fig3"]
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
@@ -66,19 +66,22 @@ def sensitivity_figures(result: SensitivityResult, out_dir: str | Path) -> list[
     axes[0].legend(fontsize=8)
     _span_axes(axes[1], result, f"{name}: after projection on the chord")
     _plot_w(axes[1], result, [sa])
-    paths.append(_save(fig, out_dir / "fig3_steady_arms.png"))
+    paths.append(save_figure(fig, out_dir / "fig3_steady_arms.png"))
 
     (dh,) = by_fig["fig4"]
     fig, ax = plt.subplots(figsize=(7, 4.5))
     _span_axes(ax, result, f"{name}: ΔH_left +5 cm, ΔH_right −5 cm")
     _plot_w(ax, result, [dh])
-    paths.append(_save(fig, out_dir / "fig4_system_height.png"))
+    paths.append(save_figure(fig, out_dir / "fig4_system_height.png"))
     return paths
 
 
-def _save(fig, path: Path) -> Path:
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Lay out ``fig``, write it as PNG at ``path`` (creating its folder) and close it."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
 
@@ -110,4 +113,4 @@ def dynamics_figure(runs: dict, mast_chainage_m, window_m: tuple[float, float], 
     ax_u.set_ylabel("uplift of the nearest steady arm [mm]")
     ax_u.set_xlabel("chainage [m] (shaded: analysis window)")
     ax_f.set_title(title)
-    return _save(fig, Path(path))
+    return save_figure(fig, Path(path))

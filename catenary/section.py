@@ -194,6 +194,14 @@ class Section:
         h = self.cw_support_heights_m
         return h[span] + frac * (h[span + 1] - h[span])
 
+    def chord_at_droppers(self, values_at_masts: np.ndarray) -> np.ndarray:
+        """Per-mast values (heights [m], gaps, ...) interpolated linearly along each span to its
+        droppers' design positions, shape (n_droppers,)."""
+        v = np.asarray(values_at_masts, dtype=float)
+        span = self.dropper_span
+        frac = self.dropper_x_m / self.span_lengths_m[span]
+        return v[span] + frac * (v[span + 1] - v[span])
+
     def with_dropper_lengths(self, dropper_lengths_m: np.ndarray) -> "Section":
         """A copy with other unstretched dropper lengths [m]."""
         return _replace(self, dropper_lengths_m=np.asarray(dropper_lengths_m, dtype=float))

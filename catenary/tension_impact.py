@@ -216,9 +216,7 @@ def tension_impact(span_type: SpanType, catenary: Catenary, pantograph: Pantogra
 def tension_impact_figure(result: TensionImpactResult, path: str | Path) -> Path:
     """Write the Fig. 6 analogue: static and measured sags of both models, and their
     difference [mm], along the central span (PNG)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
+    from .plots import save_figure  # sets the Agg backend before pyplot loads
     import matplotlib.pyplot as plt
 
     t = result.messenger_tensions_n / 1e3
@@ -248,9 +246,4 @@ def tension_impact_figure(result: TensionImpactResult, path: str | Path) -> Path
     bottom.set_ylabel(f"{t[0]:g} kN − {t[1]:g} kN [mm]")
     bottom.legend(fontsize=8)
     bottom.grid(alpha=0.3)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)

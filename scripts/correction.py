@@ -5,7 +5,7 @@ from pathlib import Path
 import pandas as pd
 
 from catenary.config import load_catenary
-from catenary.correction import corrected_schema, correction_summary
+from catenary.correction import corrected_of_type, corrected_schema, correction_summary
 from catenary.logs import rule_logger
 from catenary.parquet import config_hash, read_table, write_table
 
@@ -15,10 +15,7 @@ corrected = pd.concat([read_table(p) for p in snakemake.input.sections], ignore_
 convergence = pd.concat([pd.read_csv(p, dtype={"section_id": str, "span_id": str})
                          for p in snakemake.input.convergence], ignore_index=True)
 for span_type, path in zip(snakemake.params.span_types, snakemake.output.corrected):
-    table = corrected[corrected["span_type"] == span_type].sort_values("start_chainage_m").reset_index(drop=True)
-    n_droppers = catenary.span_type(span_type).n_droppers
-    table = table.drop(columns=[c for c in table if c.startswith("w") and c.endswith("_m")
-                                and int(c[1:-2]) > n_droppers])
+    table = corrected_of_type(corrected, span_type, catenary.span_type(span_type).n_droppers)
     write_table(table, Path(path), corrected_schema(table.columns), config_hash=config_hash(snakemake.config),
                 kind="corrected")
 convergence.to_csv(snakemake.output.convergence, index=False)

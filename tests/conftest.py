@@ -2,9 +2,11 @@
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from catenary.config import load_catenary
+from catenary.identification.design import default_inputs
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -23,3 +25,12 @@ def catenary():
 @pytest.fixture(scope="session")
 def n2(catenary):
     return catenary.span_type("N2")
+
+
+@pytest.fixture(scope="module")
+def truth(catenary, n2):
+    """Paper Table 2 laws, dropper means at the nominal table: (means, sigmas) in design order."""
+    means = np.array([s.mean for s in default_inputs(n2, catenary)])
+    means[9], means[10] = TABLE2_MESSENGER_TENSION_N[0], TABLE2_SYSTEM_HEIGHT_M[0]
+    sigmas = np.r_[TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N[1], TABLE2_SYSTEM_HEIGHT_M[1]]
+    return means, sigmas

@@ -4,21 +4,10 @@ import numpy as np
 import pytest
 from scipy import special, stats
 
-from catenary.identification.design import default_inputs, map_inputs
+from catenary.identification.design import map_inputs
 from catenary.identification.fit import make_likelihood
 from catenary.identification.likelihood import (fit_gaussian, gaussian_log_density, kernel_log_density)
 from catenary.identification.synthetic import simulate_deflections
-
-from .conftest import TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N, TABLE2_SYSTEM_HEIGHT_M
-
-
-@pytest.fixture(scope="module")
-def truth(catenary, n2):
-    """Paper Table 2 laws, dropper means at the nominal table: (means, sigmas)."""
-    means = np.array([s.mean for s in default_inputs(n2, catenary)])
-    means[9], means[10] = TABLE2_MESSENGER_TENSION_N[0], TABLE2_SYSTEM_HEIGHT_M[0]
-    sigmas = np.r_[TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N[1], TABLE2_SYSTEM_HEIGHT_M[1]]
-    return means, sigmas
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from scipy import stats
 
 from catenary.errors import ConfigError, InputError
 from catenary.identification.band import SpanProfileOperator, band_abscissae, deflection_band, sample_profiles
-from catenary.identification.design import default_inputs, draw_unit_design
+from catenary.identification.design import draw_unit_design
 from catenary.identification.fit import identify, make_likelihood
 from catenary.identification.likelihood import Likelihood, fit_gaussian, kernel_bandwidth
 from catenary.identification.outputs import IdentificationPaths, write_identification
@@ -25,18 +25,7 @@ from catenary.parquet import read_metadata, write_table
 from catenary.section import single_span
 from catenary.static import StaticModel
 
-from .conftest import TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N, TABLE2_SYSTEM_HEIGHT_M
-
 MODE = "independent"
-
-
-@pytest.fixture(scope="module")
-def truth(catenary, n2):
-    """Paper Table 2 laws, dropper means at the nominal table: (means, sigmas)."""
-    means = np.array([s.mean for s in default_inputs(n2, catenary)])
-    means[9], means[10] = TABLE2_MESSENGER_TENSION_N[0], TABLE2_SYSTEM_HEIGHT_M[0]
-    sigmas = np.r_[TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N[1], TABLE2_SYSTEM_HEIGHT_M[1]]
-    return means, sigmas
 
 
 @pytest.fixture(scope="module")

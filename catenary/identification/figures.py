@@ -17,21 +17,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ..plots import save_figure  # noqa: E402
 from .band import DeflectionBand  # noqa: E402
 from .report import MarginalDensities  # noqa: E402
 
 __all__ = ["band_figure", "estimators_figure"]
 
 MM = 1e3
-
-
-def _save(fig, path: str | Path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
 
 
 def estimators_figure(marginals: list[MarginalDensities], data_w_m: np.ndarray, path: str | Path,
@@ -73,7 +65,7 @@ def estimators_figure(marginals: list[MarginalDensities], data_w_m: np.ndarray, 
         ax.grid(alpha=0.3)
     axes.flat[0].legend(fontsize=7, title="solid: kernel, dashed: Gaussian", title_fontsize=7)
     fig.suptitle(title)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def band_figure(band: DeflectionBand, data_w_m: np.ndarray, dropper_positions_m: np.ndarray,
@@ -107,4 +99,4 @@ def band_figure(band: DeflectionBand, data_w_m: np.ndarray, dropper_positions_m:
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="lower right")
-    return _save(fig, path)
+    return save_figure(fig, path)
