@@ -15,6 +15,7 @@ import numpy as np
 import yaml
 
 from .errors import ConfigError
+from .schema import check
 
 
 @dataclass(frozen=True)
@@ -167,37 +168,10 @@ class Catenary:
             raise ConfigError(f"unknown span type {name!r}; config defines: {known}") from None
 
 
-def _get(mapping: Mapping[str, Any], key: str, where: str) -> Any:
-    if not isinstance(mapping, Mapping):
-        raise ConfigError(f"{where}: expected a mapping, got {type(mapping).__name__}")
-    if key not in mapping:
-        raise ConfigError(f"{where}.{key}: missing key")
-    return mapping[key]
-
-
-def _number(mapping: Mapping[str, Any], key: str, where: str, *, positive: bool = True,
-            allow_zero: bool = False) -> float:
-    value = _get(mapping, key, where)
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(f"{where}.{key}: expected a number, got {value!r}")
-    value = float(value)
-    if not np.isfinite(value):
-        raise ConfigError(f"{where}.{key}: expected a finite number, got {value!r}")
-    if positive and (value < 0 or (value == 0 and not allow_zero)):
-        bound = "≥ 0" if allow_zero else "> 0"
-        raise ConfigError(f"{where}.{key}: expected a value {bound}, got {value!r}")
-    return value
-
-
 def _span_type(name: str, raw: Mapping[str, Any], where: str) -> SpanType:
-    length = _number(raw, "length_m", where)
-    positions = _get(raw, "dropper_positions_m", where)
-    if not isinstance(positions, (list, tuple)) or len(positions) < 1:
-        raise ConfigError(f"{where}.dropper_positions_m: expected a non-empty list of [m]")
-    try:
-        x = np.asarray(positions, dtype=float)
-    except (TypeError, ValueError):
-        raise ConfigError(f"{where}.dropper_positions_m: expected numbers, got {positions!r}") from None
+    length = float(raw["length_m"])
+    positions = raw["dropper_positions_m"]
+    x = np.asarray(positions, dtype=float)
     if np.any(np.diff(x) <= 0):
         raise ConfigError(f"{where}.dropper_positions_m: positions must be strictly increasing, got {positions}")
     if x[0] <= 0 or x[-1] >= length:
@@ -205,77 +179,56 @@ def _span_type(name: str, raw: Mapping[str, Any], where: str) -> SpanType:
             f"{where}.dropper_positions_m: every dropper must lie strictly inside the span "
             f"(0, {length}) m, got {positions}")
     return SpanType(
-        name=name,
-        length_m=length,
-        dropper_positions_m=x,
-        presag_m=_number(raw, "presag_m", where, allow_zero=True),
-        contact_tension_n=_number(raw, "contact_tension_n", where),
-        messenger_tension_n=_number(raw, "messenger_tension_n", where),
-        system_height_m=_number(raw, "system_height_m", where),
-        cw_height_m=_number(raw, "cw_height_m", where),
+        name=name, length_m=length, dropper_positions_m=x, presag_m=float(raw["presag_m"]),
+        contact_tension_n=float(raw["contact_tension_n"]), messenger_tension_n=float(raw["messenger_tension_n"]),
+        system_height_m=float(raw["system_height_m"]), cw_height_m=float(raw["cw_height_m"]),
     )
 
 
 def catenary_from_dict(raw: Mapping[str, Any], where: str = "catenary") -> Catenary:
     """Build a :class:`Catenary` from a parsed YAML mapping, checking physical consistency.
 
+    Every key and value is checked against the shipped catenary schema (:mod:`catenary.schema`);
+    this function adds what a schema cannot say: dropper positions strictly increasing and
+    inside their span, damping frequencies increasing.
+
     Raises
     ------
     ConfigError
         Naming the key (dotted path from ``where``) and what was expected.
     """
-    wires = _get(raw, "wires", where)
-    wires_where = f"{where}.wires"
+    check(raw, "catenary", where=where)
+    wires = raw["wires"]
 
     def wire(key: str) -> Wire:
-        w = _get(wires, key, wires_where)
-        return Wire(
-            mass_per_length_kg_m=_number(w, "mass_per_length_kg_m", f"{wires_where}.{key}"),
-            bending_stiffness_n_m2=_number(w, "bending_stiffness_n_m2", f"{wires_where}.{key}", allow_zero=True),
-        )
+        return Wire(mass_per_length_kg_m=float(wires[key]["mass_per_length_kg_m"]),
+                    bending_stiffness_n_m2=float(wires[key]["bending_stiffness_n_m2"]))
 
-    d = _get(raw, "droppers", where)
-    dw = f"{where}.droppers"
+    d = raw["droppers"]
     droppers = Droppers(
-        mass_per_length_kg_m=_number(d, "mass_per_length_kg_m", dw, allow_zero=True),
-        axial_stiffness_n=_number(d, "axial_stiffness_n", dw),
-        clamp_mass_contact_kg=_number(d, "clamp_mass_contact_kg", dw, allow_zero=True),
-        clamp_mass_messenger_kg=_number(d, "clamp_mass_messenger_kg", dw, allow_zero=True),
+        mass_per_length_kg_m=float(d["mass_per_length_kg_m"]), axial_stiffness_n=float(d["axial_stiffness_n"]),
+        clamp_mass_contact_kg=float(d["clamp_mass_contact_kg"]),
+        clamp_mass_messenger_kg=float(d["clamp_mass_messenger_kg"]),
     )
-    sa = _get(raw, "steady_arm", where)
-    sw = f"{where}.steady_arm"
-    stiffness = _get(sa, "stiffness_n_m", sw)
-    steady_arm = SteadyArm(
-        stiffness_n_m=None if stiffness is None else _number(sa, "stiffness_n_m", sw, allow_zero=True),
-        mass_kg=_number(sa, "mass_kg", sw, allow_zero=True),
-    )
-    types_raw = _get(raw, "span_types", where)
-    if not isinstance(types_raw, Mapping) or not types_raw:
-        raise ConfigError(f"{where}.span_types: expected a non-empty mapping of span types")
+    sa = raw["steady_arm"]
+    steady_arm = SteadyArm(stiffness_n_m=None if sa["stiffness_n_m"] is None else float(sa["stiffness_n_m"]),
+                           mass_kg=float(sa["mass_kg"]))
     span_types = {str(name): _span_type(str(name), spec, f"{where}.span_types.{name}")
-                  for name, spec in types_raw.items()}
-    mesh = _get(raw, "mesh", where)
-    dyn = _get(raw, "dynamics", where)
-    dyw = f"{where}.dynamics"
-    freqs = _get(dyn, "damping_frequencies_hz", dyw)
-    if (not isinstance(freqs, (list, tuple)) or len(freqs) != 2
-            or not all(isinstance(f, (int, float)) and f > 0 for f in freqs) or freqs[0] >= freqs[1]):
-        raise ConfigError(f"{dyw}.damping_frequencies_hz: expected two increasing positive frequencies [Hz], got {freqs!r}")
+                  for name, spec in raw["span_types"].items()}
+    dyn = raw["dynamics"]
+    freqs = dyn["damping_frequencies_hz"]
+    if freqs[0] >= freqs[1]:
+        raise ConfigError(f"{where}.dynamics.damping_frequencies_hz: expected two increasing positive frequencies "
+                          f"[Hz], got {freqs!r}")
     dynamics = DynamicSettings(
-        time_step_s=_number(dyn, "time_step_s", dyw),
-        damping_ratio=_number(dyn, "damping_ratio", dyw, allow_zero=True),
+        time_step_s=float(dyn["time_step_s"]), damping_ratio=float(dyn["damping_ratio"]),
         damping_frequencies_hz=(float(freqs[0]), float(freqs[1])),
-        contact_stiffness_n_m=_number(dyn, "contact_stiffness_n_m", dyw),
+        contact_stiffness_n_m=float(dyn["contact_stiffness_n_m"]),
     )
     return Catenary(
-        contact=wire("contact"),
-        messenger=wire("messenger"),
-        droppers=droppers,
-        steady_arm=steady_arm,
-        span_types=span_types,
-        gravity_m_s2=_number(raw, "gravity_m_s2", where),
-        max_element_length_m=_number(mesh, "max_element_length_m", f"{where}.mesh"),
-        dynamics=dynamics,
+        contact=wire("contact"), messenger=wire("messenger"), droppers=droppers, steady_arm=steady_arm,
+        span_types=span_types, gravity_m_s2=float(raw["gravity_m_s2"]),
+        max_element_length_m=float(raw["mesh"]["max_element_length_m"]), dynamics=dynamics,
     )
 
 

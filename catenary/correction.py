@@ -22,7 +22,7 @@ stay at their design values: they are what the identification later treats as ra
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping
 
 import numpy as np
@@ -30,8 +30,9 @@ import pandas as pd
 
 from .config import Catenary
 from .dropper_table import dropper_lengths_for_cw_heights
-from .errors import ConfigError, ConvergenceError, InputError
-from .measuring import MODES, measuring_pass
+from .errors import ConvergenceError, InputError
+from .measuring import measuring_pass
+from .schema import check
 from .pantograph import Pantograph
 from .section import Section
 from .static import StaticModel
@@ -76,22 +77,19 @@ class CorrectionSettings:
     quasi_static_start: bool = True
 
     def __post_init__(self) -> None:
-        if self.mode not in MODES:
-            raise ConfigError(f"correction.mode: expected one of {MODES}, got {self.mode!r}")
-        for name in ("time_step_s", "tolerance_m", "speed_kmh", "force_n"):
-            value = getattr(self, name)
-            if not np.isfinite(value) or value <= 0:
-                raise ConfigError(f"correction.{name}: expected a number > 0, got {value!r}")
-        if int(self.max_iterations) != self.max_iterations or self.max_iterations < 1:
-            raise ConfigError(f"correction.max_iterations: expected an integer ≥ 1, got {self.max_iterations!r}")
+        check(asdict(self), "config", "correction")
 
     @classmethod
     def from_mapping(cls, mapping: Mapping[str, Any] | None) -> "CorrectionSettings":
-        """Settings from the config block; unknown keys are refused."""
-        mapping = dict(mapping or {})
-        unknown = sorted(set(mapping) - set(cls.__dataclass_fields__))
-        if unknown:
-            raise ConfigError(f"correction: unknown keys {unknown}; known: {sorted(cls.__dataclass_fields__)}")
+        """Settings from the config block (missing keys take their defaults).
+
+        Raises
+        ------
+        ConfigError
+            On an unknown key or a bad value (checked against the config schema).
+        """
+        mapping = {} if mapping is None else mapping
+        check({**asdict(cls()), **mapping} if isinstance(mapping, Mapping) else mapping, "config", "correction")
         return cls(**mapping)
 
 
@@ -204,7 +202,8 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
     Returns
     -------
     RunCorrection
-        ``failure`` says why when no taut model reproduces the measurement.
+        ``failure`` says why when a static or dynamic solve did not converge (a
+        :class:`~catenary.errors.ConvergenceError`); any other error propagates.
     """
     span_ids = rows["span_id"].to_numpy()
     section = run_section(rows, catenary)
@@ -235,9 +234,11 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
                 history.append((mode, norms))
                 if np.all(norms < tolerance):
                     break
-    except (ValueError, ConvergenceError) as exc:
+    except ConvergenceError as exc:
+        # Only a solver that did not settle is a property of this run; a ConfigError, an
+        # InputError or a programming error propagates and stops the rule.
         return RunCorrection(span_ids, empty, np.full(len(rows), np.nan), _passes(history, settings.mode),
-                             history, failure=f"no taut model reproduces the measurement ({exc})")
+                             history, failure=f"a solver did not converge on this run ({exc})")
     # Static W of the last simulated model (at slack droppers the CW hangs below its target).
     w = StaticModel(section, catenary).solve().dropper_deflection_m()
     static_w = empty.copy()
@@ -248,12 +249,14 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
                          section.dropper_lengths_m, slack_droppers=slack)
 
 
-def _passes_to_converge(history: list[tuple[str, np.ndarray]], settings: CorrectionSettings) -> np.ndarray:
+def _passes_to_converge(history: list[tuple[str, np.ndarray]], settings: CorrectionSettings,
+                        n_spans: int) -> np.ndarray:
     """Per span: passes in the settings' mode until its gap first fell below the tolerance (all
-    passes made when it never did). The run goes on while any of its spans is above."""
+    passes made when it never did; 0 when the run failed before its first such pass). The run
+    goes on while any of its spans is above."""
     norms = np.array([n for m, n in history if m == settings.mode])
     if norms.size == 0:
-        return np.zeros(history[0][1].size if history else 0, dtype=int)
+        return np.zeros(n_spans, dtype=int)
     below = norms < settings.tolerance_m
     return np.where(below.any(axis=0), below.argmax(axis=0) + 1, norms.shape[0])
 
@@ -312,7 +315,7 @@ def correct_spans(spans: pd.DataFrame, recording: pd.DataFrame, catenary: Catena
         speed, force = measuring_conditions(recording, rows, settings)
         result = correct_run(rows, catenary, pantograph.with_static_force(force), speed, settings)
         converged = np.isfinite(result.gap_norm_m) & (result.gap_norm_m < settings.tolerance_m)
-        passes = _passes_to_converge(result.history, settings)
+        passes = _passes_to_converge(result.history, settings, len(rows))
         for k in range(len(rows)):
             reason = result.failure or ("" if converged[k] else
                                         f"gap {result.gap_norm_m[k] * 1e3:.2f} mm after {result.iterations} passes")

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import Catenary, SpanType
-from .errors import ConvergenceError
+from .errors import ConvergenceError, NoTautSolutionError
 from .section import Section, single_span
 from .static import StaticModel
 
@@ -79,9 +79,11 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
 
     Raises
     ------
-    ValueError
+    NoTautSolutionError
         If the target needs a dropper in compression (no taut solution exists) and
         ``allow_slack`` is False.
+    ValueError
+        If ``cw_heights_m`` has the wrong size (a programming error).
     ConvergenceError
         If the lengths do not settle (should not happen: the weight coupling is weak).
     """
@@ -107,7 +109,7 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
                 first = np.searchsorted(section.dropper_span, section.dropper_span[bad])
                 where = ", ".join(f"span {s + 1} dropper {i + 1}"
                                   for s, i in zip(section.dropper_span[bad], bad - first))
-                raise ValueError(f"target CW profile needs {where} in compression "
+                raise NoTautSolutionError(f"target CW profile needs {where} in compression "
                                  f"(forces {np.round(force[bad], 3).tolist()} N); no taut dropper lengths produce it")
             slack |= pushing
         # MW under its weight and the dropper tensions.

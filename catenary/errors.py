@@ -17,6 +17,17 @@ class ConvergenceError(CatenaryError, RuntimeError):
     """A nonlinear solve did not converge; no result is returned in that case."""
 
 
+class NoTautSolutionError(CatenaryError, ValueError):
+    """The physics admits no answer with every dropper taut (a target profile that needs a
+    dropper to push); the message names the span and dropper. Raised only where slack droppers
+    are not allowed, so that the caller can reject that one span and go on."""
+
+
+class OutOfModelRangeError(CatenaryError, ValueError):
+    """An input lies outside the range a reduced model was built for (e.g. a T_MW sample outside
+    the fast model's tension interval); the caller may treat that point as infeasible."""
+
+
 class InputError(CatenaryError, ValueError):
     """An input data file (recording, masts, truth) is malformed.
 

@@ -39,6 +39,7 @@ from scipy.sparse.linalg import splu
 from .chebyshev import ChebyshevInterpolant, fit_chebyshev
 from .config import Catenary, SpanType
 from .dropper_table import nominal_dropper_lengths
+from .errors import OutOfModelRangeError
 from .section import inclined_dropper, single_span
 from .static import CW, DOFS_PER_NODE, StaticModel
 
@@ -226,7 +227,9 @@ class FastSpanModel:
         Raises
         ------
         ValueError
-            If shapes disagree or a tension lies outside the model's bounds.
+            If shapes disagree.
+        OutOfModelRangeError
+            If a tension lies outside the model's bounds (a ``ValueError`` too).
         """
         lengths = np.atleast_2d(np.asarray(dropper_lengths_m, dtype=float))
         n_samples = lengths.shape[0]
@@ -240,7 +243,7 @@ class FastSpanModel:
         for name, values, (lo, hi) in (("messenger_tension_n", t_mw, self.messenger_tension_bounds_n),
                                        ("contact_tension_n", t_cw, self.contact_tension_bounds_n)):
             if np.any(values < lo * (1 - 1e-12)) or np.any(values > hi * (1 + 1e-12)) or np.any(~np.isfinite(values)):
-                raise ValueError(f"{name}: values must lie in the model's bounds [{lo}, {hi}] N "
+                raise OutOfModelRangeError(f"{name}: values must lie in the model's bounds [{lo}, {hi}] N "
                                  f"(got {np.nanmin(values)}…{np.nanmax(values)}); build the model with wider bounds")
         w = np.empty((n_samples, self.n_droppers))
         force = np.empty_like(w)

@@ -34,7 +34,7 @@ import pyarrow as pa
 
 from .config import Catenary, SpanType
 from .dropper_table import dropper_lengths_for_cw_heights, nominal_dropper_lengths
-from .errors import InputError
+from .errors import InputError, NoTautSolutionError
 from .section import single_span
 
 CM = 1e2
@@ -130,8 +130,10 @@ def invert_span(span_type: SpanType, catenary: Catenary, w_m: np.ndarray, *,
 
     Raises
     ------
+    NoTautSolutionError
+        If ``w_m`` would need a dropper in compression.
     ValueError
-        If ``w_m`` has the wrong size or would need a dropper in compression.
+        If ``w_m`` has the wrong size.
     """
     w = np.asarray(w_m, dtype=float)
     if w.shape != span_type.dropper_positions_m.shape:
@@ -212,7 +214,7 @@ def invert_spans(span_type: SpanType, catenary: Catenary, span_id, w_m: np.ndarr
             lengths.append(invert_span(span_type, catenary, row, messenger_tension_n=t_mw, system_height_m=dh,
                                        initial_lengths_m=nominal))
             kept.append(sid)
-        except ValueError as exc:
+        except NoTautSolutionError as exc:
             left_out.append({"span_id": sid, "reason": str(exc)})
     return InversionResult(
         span_id=np.asarray(kept, dtype=str),

@@ -110,13 +110,14 @@ def config_hash(mapping: Mapping[str, Any]) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-def file_metadata(*, config_hash: str, kind: str) -> dict[str, str]:
-    """The file-level metadata written by :func:`write_table`."""
+def file_metadata(*, config_hash: str, kind: str, extra: Mapping[str, str] | None = None) -> dict[str, str]:
+    """The file-level metadata written by :func:`write_table` (``extra`` keys get the same prefix)."""
     return {
         f"{METADATA_PREFIX}schema_version": SCHEMA_VERSION,
         f"{METADATA_PREFIX}package_version": __version__,
         f"{METADATA_PREFIX}config_hash": str(config_hash),
         f"{METADATA_PREFIX}kind": str(kind),
+        **{f"{METADATA_PREFIX}{k}": str(v) for k, v in (extra or {}).items()},
     }
 
 
@@ -151,7 +152,8 @@ def to_arrow(df: pd.DataFrame, schema: pa.Schema) -> pa.Table:
     return pa.Table.from_arrays(arrays, schema=schema)
 
 
-def write_table(df: pd.DataFrame, path: str | Path, schema: pa.Schema, *, config_hash: str, kind: str) -> None:
+def write_table(df: pd.DataFrame, path: str | Path, schema: pa.Schema, *, config_hash: str, kind: str,
+                extra_metadata: Mapping[str, str] | None = None) -> None:
     """Write ``df`` to the Parquet file ``path`` with the explicit Arrow ``schema``.
 
     Parameters
@@ -168,6 +170,8 @@ def write_table(df: pd.DataFrame, path: str | Path, schema: pa.Schema, *, config
         Hash of the configuration that produced the table (:func:`config_hash`).
     kind : str
         What the table is (``"recording"``, ``"masts"``, ``"spans"``...).
+    extra_metadata : mapping of str to str, optional
+        Further file-level keys (e.g. the identification's ``status``).
 
     Notes
     -----
@@ -176,7 +180,8 @@ def write_table(df: pd.DataFrame, path: str | Path, schema: pa.Schema, *, config
     (which records library versions) is not written — the Arrow schema is authoritative.
     """
     path = Path(path)
-    schema = with_units(schema).with_metadata(file_metadata(config_hash=config_hash, kind=kind))
+    schema = with_units(schema).with_metadata(file_metadata(config_hash=config_hash, kind=kind,
+                                                            extra=extra_metadata))
     table = to_arrow(df, schema)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")

@@ -35,7 +35,7 @@ reason: :func:`project` checks this before returning.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -44,11 +44,10 @@ import pandas as pd
 import pyarrow as pa
 
 from .config import Catenary, SpanType
-from .errors import ConfigError
+from .schema import check
 from .parquet import write_table
 from .recording import row_label, rows_label, validate_masts, validate_recording
 
-FIT_MODELS = ("quadratic", "kinked", "linear")
 STATUS_USED = "used"
 STATUS_REJECTED = "rejected"
 
@@ -98,24 +97,8 @@ class ProjectionSettings:
     max_iterations: int = 20
 
     def __post_init__(self) -> None:
-        where = "projection"
-        for name in ("span_type_tolerance_m", "fit_half_window_m", "outlier_threshold"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
-                raise ConfigError(f"{where}.{name}: expected a positive number, got {value!r}")
-        if not (isinstance(self.scale_floor_m, (int, float)) and np.isfinite(self.scale_floor_m)
-                and self.scale_floor_m >= 0):
-            raise ConfigError(f"{where}.scale_floor_m: expected a number ≥ 0, got {self.scale_floor_m!r}")
-        if self.max_gap_m is not None and not (isinstance(self.max_gap_m, (int, float))
-                                               and np.isfinite(self.max_gap_m) and self.max_gap_m > 0):
-            raise ConfigError(f"{where}.max_gap_m: expected a positive number or null, got {self.max_gap_m!r}")
-        if self.fit_model not in FIT_MODELS:
-            raise ConfigError(f"{where}.fit_model: expected one of {', '.join(FIT_MODELS)}, got {self.fit_model!r}")
-        n_params = _n_params(self.fit_model)
-        for name, low in (("min_samples", n_params + 1), ("max_iterations", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-                raise ConfigError(f"{where}.{name}: expected an integer ≥ {low}, got {value!r}")
+        # The config schema's projection block is the contract (min_samples against fit_model too).
+        check(asdict(self), "config", "projection")
 
     @classmethod
     def from_mapping(cls, mapping: Mapping[str, Any] | None, where: str = "projection") -> "ProjectionSettings":
@@ -124,13 +107,11 @@ class ProjectionSettings:
         Raises
         ------
         ConfigError
-            On an unknown key or a bad value.
+            On an unknown key or a bad value (checked against the config schema).
         """
-        mapping = dict(mapping or {})
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(mapping) - known)
-        if unknown:
-            raise ConfigError(f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+        mapping = {} if mapping is None else mapping
+        check({**asdict(cls()), **mapping} if isinstance(mapping, Mapping) else mapping, "config", "projection",
+              where=where)
         return cls(**mapping)
 
 
@@ -182,6 +163,9 @@ class LocalFit:
         RMS of the inlier residuals [m].
     residual_sq_sum_m2 : float
         Sum of squared inlier residuals [m²].
+    settled : bool
+        False when the inlier set still changed after ``max_iterations`` reweighting passes:
+        the height is then not a converged robust estimate and the span is rejected.
     """
 
     height_m: float
@@ -189,6 +173,7 @@ class LocalFit:
     n_outliers: int
     rms_m: float
     residual_sq_sum_m2: float
+    settled: bool = True
 
 
 def _n_params(model: str) -> int:
@@ -234,6 +219,8 @@ def robust_local_fit(x_m: np.ndarray, h_m: np.ndarray, x0_m: float, settings: Pr
     if keep.sum() < settings.min_samples:
         keep = np.ones(n, dtype=bool)
     coef = np.zeros(a.shape[1])
+    settled = True
+    seen = [keep]
     for _ in range(settings.max_iterations):
         coef = np.linalg.lstsq(a[keep], h_m[keep], rcond=None)[0]
         r = h_m - a @ coef
@@ -243,14 +230,23 @@ def robust_local_fit(x_m: np.ndarray, h_m: np.ndarray, x0_m: float, settings: Pr
             break
         if np.array_equal(new_keep, keep):
             break
+        cycle = next((i for i, k in enumerate(seen) if np.array_equal(k, new_keep)), None)
+        if cycle is not None:
+            # The inlier set cycles (a sample on the threshold enters and leaves): keep only the
+            # samples that every set of the cycle keeps, a fixed and conservative answer.
+            keep = np.logical_and.reduce(seen[cycle:])
+            break
         keep = new_keep
+        seen.append(keep)
+    else:
+        settled = False            # the inlier set was still changing, without a cycle, at the last pass
     n_in = int(keep.sum())
     if n_in < settings.min_samples:
         return LocalFit(float("nan"), n_in, n - n_in, float("nan"), float("nan"))
     coef = np.linalg.lstsq(a[keep], h_m[keep], rcond=None)[0]
     r = h_m[keep] - a[keep] @ coef
     ss = float(r @ r)
-    return LocalFit(float(coef[0]), n_in, n - n_in, float(np.sqrt(ss / n_in)), ss)
+    return LocalFit(float(coef[0]), n_in, n - n_in, float(np.sqrt(ss / n_in)), ss, settled)
 
 
 # --------------------------------------------------------------------------------------------
@@ -412,6 +408,12 @@ def project(recording: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
                   for label, xp, f in zip(labels, where, fits) if not np.isfinite(f.height_m)]
         if failed:
             reasons.append(f"too few samples for a local fit (need {settings.min_samples}): " + ", ".join(failed))
+        unsettled = [f"{label} at chainage {xp:.3f} m" for label, xp, f in zip(labels, where, fits)
+                     if np.isfinite(f.height_m) and not f.settled]
+        if unsettled:
+            reasons.append(f"robust local fit did not settle in {settings.max_iterations} reweighting passes "
+                           "(the outlier set kept changing): " + ", ".join(unsettled))
+        if reasons:
             report_rows.append(_report_row(span, st, STATUS_REJECTED, "; ".join(reasons)))
             continue
         heights = np.array([f.height_m for f in fits])

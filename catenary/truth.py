@@ -27,8 +27,8 @@ from .config import Catenary
 from .dropper_table import nominal_dropper_lengths
 from .effects import EFFECTS, SpanParameters
 from .errors import ConfigError
+from .schema import check
 
-LAWS = ("normal", "gamma", "fixed")
 
 
 @dataclass(frozen=True)
@@ -97,69 +97,58 @@ class TruthSpec:
     raw: dict = field(repr=False, default_factory=dict)
 
 
-def _law(raw: Any, where: str) -> Law:
-    if not isinstance(raw, Mapping) or "law" not in raw or "mean" not in raw:
-        raise ConfigError(f"{where}: expected a mapping with 'law' ({', '.join(LAWS)}), 'mean' and 'std'")
-    kind = raw["law"]
-    if kind not in LAWS:
-        raise ConfigError(f"{where}.law: expected one of {LAWS}, got {kind!r}")
-    mean, std = raw["mean"], raw.get("std", 0.0)
-    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (mean, std)) or std < 0:
-        raise ConfigError(f"{where}: expected numeric mean and std ≥ 0, got {mean!r}, {std!r}")
-    if kind == "gamma" and mean <= 0:
-        raise ConfigError(f"{where}.mean: a gamma law needs a positive mean, got {mean!r}")
-    return Law(kind, float(mean), float(std))
+def _law(raw: Mapping[str, Any]) -> Law:
+    """A law from its schema-checked mapping."""
+    return Law(raw["law"], float(raw["mean"]), float(raw.get("std", 0.0)))
 
 
 def truth_from_dict(raw: Mapping[str, Any], catenary: Catenary, where: str = "campaign") -> TruthSpec:
-    """Check and parse a truth mapping; errors name the key."""
-    def get(m, key, w):
-        if not isinstance(m, Mapping) or key not in m:
-            raise ConfigError(f"{w}.{key}: missing key")
-        return m[key]
+    """Check and parse a truth mapping; errors name the key.
 
-    line = get(raw, "line", where)
+    The campaign schema (:mod:`catenary.schema`) checks every key and value; this function
+    adds what depends on the catenary data and the effects' physics: known span types, unique
+    section ids, one dropper law per dropper of the type, the effects' names and magnitudes.
+    """
+    check(raw, "campaign", where=where)
+    line = raw["line"]
     sections = []
-    for i, s in enumerate(get(line, "sections", f"{where}.line")):
-        w = f"{where}.line.sections[{i}]"
-        span_type = get(s, "span_type", w)
-        if span_type not in catenary.span_types:
-            raise ConfigError(f"{w}.span_type: unknown span type {span_type!r}; known: {', '.join(catenary.span_types)}")
-        n = get(s, "n_spans", w)
-        if not isinstance(n, int) or n < 1:
-            raise ConfigError(f"{w}.n_spans: expected a positive integer, got {n!r}")
-        sections.append(SectionSpec(str(get(s, "section_id", w)), span_type, n))
+    for i, s in enumerate(line["sections"]):
+        if s["span_type"] not in catenary.span_types:
+            raise ConfigError(f"{where}.line.sections[{i}].span_type: unknown span type {s['span_type']!r}; "
+                              f"known: {', '.join(catenary.span_types)}")
+        sections.append(SectionSpec(s["section_id"], s["span_type"], int(s["n_spans"])))
     ids = [s.section_id for s in sections]
     if len(set(ids)) != len(ids):
         raise ConfigError(f"{where}.line.sections: section ids must be unique, got {ids}")
     used_types = sorted({s.span_type for s in sections})
-    params = get(raw, "span_parameters", where)
+    params = raw["span_parameters"]
     dropper_laws, system_height, messenger = {}, {}, {}
     for t in used_types:
         w = f"{where}.span_parameters.{t}"
-        p = get(params, t, f"{where}.span_parameters")
-        d = get(p, "dropper_lengths_m", w)
+        if t not in params:
+            raise ConfigError(f"{w}: missing key (the line has sections of span type {t})")
+        p = params[t]
+        d = p["dropper_lengths_m"]
         n_d = catenary.span_type(t).n_droppers
+        std = np.asarray(d["std"], dtype=float)
+        if std.shape != (n_d,):
+            raise ConfigError(f"{w}.dropper_lengths_m.std: expected {n_d} values ≥ 0 [m] (one per dropper of {t}), "
+                              f"got {std.size}")
         mean = d.get("mean", "nominal")
-        std = np.asarray(get(d, "std", f"{w}.dropper_lengths_m"), dtype=float)
-        if std.shape != (n_d,) or np.any(std < 0):
-            raise ConfigError(f"{w}.dropper_lengths_m.std: expected {n_d} values ≥ 0 [m]")
         if mean != "nominal":
             mean = np.asarray(mean, dtype=float)
-            if mean.shape != (n_d,) or np.any(mean <= 0):
-                raise ConfigError(f"{w}.dropper_lengths_m.mean: expected 'nominal' or {n_d} positive lengths [m]")
+            if mean.shape != (n_d,):
+                raise ConfigError(f"{w}.dropper_lengths_m.mean: expected 'nominal' or {n_d} positive lengths [m], "
+                                  f"got {mean.size}")
         else:
             mean = None
-        law = d.get("law", "gamma")
-        if law not in ("normal", "gamma"):
-            raise ConfigError(f"{w}.dropper_lengths_m.law: expected 'normal' or 'gamma', got {law!r}")
-        dropper_laws[t] = (mean, std, law)
-        system_height[t] = _law(get(p, "system_height_m", w), f"{w}.system_height_m")
-        messenger[t] = _law(get(p, "messenger_tension_n", w), f"{w}.messenger_tension_n")
+        dropper_laws[t] = (mean, std, d.get("law", "gamma"))
+        system_height[t] = _law(p["system_height_m"])
+        messenger[t] = _law(p["messenger_tension_n"])
     effects = []
     for i, e in enumerate(raw.get("hidden_effects") or []):
         w = f"{where}.hidden_effects[{i}]"
-        name = get(e, "name", w)
+        name = e["name"]
         if name not in EFFECTS:
             raise ConfigError(f"{w}.name: unknown effect {name!r}; known: {', '.join(EFFECTS)}")
         magnitude = {k: float(v) for k, v in e.items() if k != "name"}
@@ -172,24 +161,17 @@ def truth_from_dict(raw: Mapping[str, Any], catenary: Catenary, where: str = "ca
             raise ConfigError(f"{w}: effect {name!r} takes magnitudes {keys} (required {required}); "
                               f"unknown {unknown}, missing {missing}")
         effects.append((name, magnitude))
-    m = get(raw, "measurement", where)
-    mw = f"{where}.measurement"
+    m = raw["measurement"]
     measurement = Measurement(
-        pantograph=str(get(m, "pantograph", mw)), speed_kmh=float(get(m, "speed_kmh", mw)),
-        force_n=float(get(m, "force_n", mw)), sampling_step_m=float(get(m, "sampling_step_m", mw)),
-        noise_std_m=float(get(m, "noise_std_m", mw)), quantisation_m=float(get(m, "quantisation_m", mw)),
-        dropout_rate_per_km=float(get(m, "dropout_rate_per_km", mw)),
-        dropout_length_m=float(get(m, "dropout_length_m", mw)),
-        spike_rate_per_km=float(get(m, "spike_rate_per_km", mw)), spike_height_m=float(get(m, "spike_height_m", mw)),
-        mode=str(get(m, "mode", mw)), time_step_s=float(get(m, "time_step_s", mw)))
-    if measurement.mode not in ("dynamic", "quasi_static"):
-        raise ConfigError(f"{mw}.mode: expected 'dynamic' or 'quasi_static', got {measurement.mode!r}")
+        pantograph=str(m["pantograph"]), speed_kmh=float(m["speed_kmh"]), force_n=float(m["force_n"]),
+        sampling_step_m=float(m["sampling_step_m"]), noise_std_m=float(m["noise_std_m"]),
+        quantisation_m=float(m["quantisation_m"]), dropout_rate_per_km=float(m["dropout_rate_per_km"]),
+        dropout_length_m=float(m["dropout_length_m"]), spike_rate_per_km=float(m["spike_rate_per_km"]),
+        spike_height_m=float(m["spike_height_m"]), mode=str(m["mode"]), time_step_s=float(m["time_step_s"]))
     return TruthSpec(
-        seed=int(get(raw, "seed", where)), sections=sections, section_gap_m=float(line.get("section_gap_m", 50.0)),
-        span_length_jitter_m=float(line.get("span_length_jitter_m", 0.0)),
-        cw_height=_law(get(line, "cw_height_m", f"{where}.line"), f"{where}.line.cw_height_m"),
-        dropper_laws=dropper_laws, system_height=system_height,
-        contact_tension=_law(get(raw, "contact_tension_n", where), f"{where}.contact_tension_n"),
+        seed=int(raw["seed"]), sections=sections, section_gap_m=float(line.get("section_gap_m", 50.0)),
+        span_length_jitter_m=float(line.get("span_length_jitter_m", 0.0)), cw_height=_law(line["cw_height_m"]),
+        dropper_laws=dropper_laws, system_height=system_height, contact_tension=_law(raw["contact_tension_n"]),
         messenger_tension=messenger, hidden_effects=effects, measurement=measurement, raw=dict(raw))
 
 

@@ -128,7 +128,35 @@ def test_impossible_span_is_reported_not_lost(catenary, n2, measuring):
 @pytest.mark.parametrize("mapping, message", [({"mode": "fast"}, "correction.mode"),
                                               ({"tolerance_m": 0.0}, "correction.tolerance_m"),
                                               ({"max_iterations": 0}, "max_iterations"),
-                                              ({"tolerance": 1e-3}, "unknown keys")])
+                                              ({"tolerance": 1e-3}, r"correction: unknown key\(s\) tolerance")])
 def test_bad_settings_name_the_key(mapping, message):
     with pytest.raises(ConfigError, match=message):
         CorrectionSettings.from_mapping(mapping)
+
+
+def test_only_a_solver_failure_is_reported_as_a_failed_run(catenary, n2, measuring, monkeypatch):
+    # A ConvergenceError of a solve is a property of that run: the run's spans are kept, marked
+    # not converged, with the reason. Any other error (here a ConfigError, as a bad pantograph or
+    # mode would raise) is a configuration or programming error and must stop the correction.
+    import catenary.correction as correction
+    from catenary.errors import ConvergenceError
+
+    truth = true_line(catenary, n2, n_spans=2)
+    h_d = solve_static(truth, catenary).cw_height_at(truth.dropper_chainage_m)
+    spans = measured_spans(truth, h_d, truth.cw_support_heights_m)
+    settings = CorrectionSettings(mode="quasi_static", max_iterations=2)
+
+    def unsettled(*args, **kwargs):
+        raise ConvergenceError("dropper/contact states did not settle in 50 iterations")
+
+    monkeypatch.setattr(correction, "measuring_pass", unsettled)
+    corrected, _ = correct_spans(spans, recording(1000.0, 1120.0), catenary, measuring, settings)
+    assert len(corrected) == 2 and not corrected["converged"].any()
+    assert corrected["reason"].str.contains("a solver did not converge on this run .*did not settle").all()
+
+    def misconfigured(*args, **kwargs):
+        raise ConfigError("correction.pantograph: unknown pantograph 'measurin'")
+
+    monkeypatch.setattr(correction, "measuring_pass", misconfigured)
+    with pytest.raises(ConfigError, match="unknown pantograph"):
+        correct_spans(spans, recording(1000.0, 1120.0), catenary, measuring, settings)

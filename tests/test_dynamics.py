@@ -57,7 +57,12 @@ def test_slow_pass_reaches_the_quasi_static_limit(catenary, pantographs, three_s
                           time_step_s=0.01, ops=ops)
     points = middle_span_points(section)
     qs = quasi_static_heights(ops, points, 36.0)
-    assert np.max(np.abs(np.interp(points, slow.chainage_m, slow.height_m) - qs)) < 0.5e-3
+    # Measured 0.063 mm at 5 km/h (0.083 mm at 10 km/h, 0.53 mm at 20 and 40 km/h): what is left
+    # is the pantograph's own lightly damped response to each dropper, not a modelling error. The
+    # bound, 0.1 mm, is a tenth of the recording resolution (1 mm), the accuracy at which the
+    # quasi-static limit is indistinguishable from it. Tried: the quasi-static heights at 37 N
+    # instead of 36 N differ by 0.39 mm and fail; the former 0.5 mm bound let that 1 N through.
+    assert np.max(np.abs(np.interp(points, slow.chainage_m, slow.height_m) - qs)) < 0.1e-3
 
 
 def test_measuring_speed_differs_little_from_quasi_static(catenary, pantographs, three_spans):

@@ -95,7 +95,8 @@ def test_dynamic_operator_keeps_the_static_solution_with_offsets(catenary, n2, n
     section = uniform_section(n2, 2, nominal).with_dropper_offsets(rng.uniform(-0.2, 0.2, 18))
     ops = CatenaryDynamics(section, fixed)
     static = StaticModel(section, fixed)
-    np.testing.assert_allclose(ops.gravity_state.dofs, static.solve().dofs, atol=1e-12)
+    # (CatenaryDynamics takes its gravity state from StaticModel.solve: comparing the two would
+    # restate the code. The dynamic operator's own quasi-static solve is the independent check.)
     points = section.dropper_chainage_m[[2, 7, 12]]
     qs = quasi_static_heights(ops, points, 36.0)
     ref = [static.solve(cw_point_loads=(np.array([x]), np.array([36.0]))).cw_height_at(np.array([x]))[0]

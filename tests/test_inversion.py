@@ -177,3 +177,18 @@ def test_same_static_sag_at_16_and_20_kn_measures_within_2_mm(catenary, n2):
     assert summary.loc["span", "max_correction_mm"] > 10.0
     # The softer catenary (16 kN) is lifted more everywhere on average.
     assert np.mean(result.difference_m) > 0
+
+
+def test_a_config_error_inside_the_inversion_is_not_a_left_out_span(catenary, n2, monkeypatch):
+    # Only "no taut dropper lengths produce this W" leaves a span out (above); an error of the
+    # configuration or the code must surface, not be reported as the physics of one span.
+    import catenary.inversion as inversion
+    from catenary.errors import ConfigError
+
+    def misconfigured(*args, **kwargs):
+        raise ConfigError("catenary.droppers.axial_stiffness_n: expected a value > 0, got 0")
+
+    monkeypatch.setattr(inversion, "dropper_lengths_for_cw_heights", misconfigured)
+    w = np.tile(presag_deflection_m(n2, n2.dropper_positions_m), (2, 1))
+    with pytest.raises(ConfigError, match="axial_stiffness_n"):
+        invert_spans(n2, catenary, ["a", "b"], w)

@@ -45,6 +45,7 @@ import numpy as np
 from scipy import special
 from scipy.linalg import solve_triangular
 
+from ..errors import OutOfModelRangeError
 from ..fast import FastSpanModel
 from .design import UnitDesign, design_dimension, map_inputs
 
@@ -305,12 +306,12 @@ class Likelihood:
 
         Raises
         ------
-        ValueError
+        OutOfModelRangeError
             If a T_MW sample lies outside the fast model's tension range.
         """
         parts = list(self._chunks(means, sigmas))
         if parts and parts[-1] is None:
-            raise ValueError("messenger_tension_n: samples outside the fast model's tension bounds "
+            raise OutOfModelRangeError("messenger_tension_n: samples outside the fast model's tension bounds "
                              f"{self.model.messenger_tension_bounds_n} N")
         w, weight, f_min = (np.concatenate(p) for p in zip(*parts))
         return ModelSample(w_m=w, weight=weight, min_dropper_force_n=f_min)
@@ -322,7 +323,7 @@ class Likelihood:
         if self.estimator == "kernel":
             try:
                 sample = self.model_sample(means, sigmas)
-            except ValueError:
+            except OutOfModelRangeError:
                 return LikelihoodValue(-np.inf, np.nan, 0.0, "tension_out_of_bounds")
             slack = 1.0 - float(sample.weight.sum()) / self.n_samples
             if slack > self.max_slack_fraction:

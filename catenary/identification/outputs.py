@@ -56,15 +56,18 @@ def write_identification(run: IdentificationRun, paths: IdentificationPaths, *, 
     st = run.span_type.name
     s_opt_table(run.result).to_csv(paths.s_opt, index=False, float_format="%.17g")
     names = [e.parameter for e in run.result.estimates]
+    status = run.result.status
     write_table(trace_table(run.result), paths.trace, trace_schema(names), config_hash=config_hash,
-                kind="identification_trace")
+                kind="identification_trace", extra_metadata={"status": status,
+                                                             "converged": str(run.result.converged).lower()})
     with open(paths.normality, "w") as f:
-        json.dump({"span_type": st, "test": "Henze–Zirkler (lognormal p-value)", **run.normality}, f, indent=2,
-                  ensure_ascii=False)
+        json.dump({"span_type": st, "identification_status": status, "test": "Henze–Zirkler (lognormal p-value)",
+                   **run.normality}, f, indent=2, ensure_ascii=False)
         f.write("\n")
+    mark = "" if status == "ok" else f" [{status.upper().replace('_', ' ')}]"
     estimators_figure(run.marginals, run.data_w_m, paths.estimators,
-                      f"{st}: marginals of W at s_opt, Gaussian (dashed) vs kernel (solid)")
+                      f"{st}: marginals of W at s_opt, Gaussian (dashed) vs kernel (solid){mark}")
     band_figure(run.band, run.data_w_m, run.span_type.dropper_positions_m, paths.band,
-                f"{st}: {100 * run.band.level:.0f} % band of the CW deflection under s_opt")
+                f"{st}: {100 * run.band.level:.0f} % band of the CW deflection under s_opt{mark}")
     Path(paths.report).write_text(markdown_report(run, source=source,
                                                   figures=(Path(paths.estimators).name, Path(paths.band).name)))

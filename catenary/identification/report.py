@@ -24,7 +24,7 @@ import pandas as pd
 import pyarrow as pa
 
 from ..config import Catenary, SpanType
-from ..errors import InputError
+from ..errors import ConvergenceError, InputError
 from ..fast import FastSpanModel
 from ..normality import henze_zirkler
 from ..parquet import read_table
@@ -40,7 +40,7 @@ __all__ = ["CorrectedData", "IdentificationRun", "MarginalDensities", "S_OPT_COL
            "markdown_report", "normality_report", "read_corrected", "run_identification", "s_opt_table",
            "trace_schema", "trace_table"]
 
-S_OPT_COLUMNS = ("parameter", "mu", "sigma", "mu_se", "sigma_se", "mu_fixed")
+S_OPT_COLUMNS = ("parameter", "mu", "sigma", "mu_se", "sigma_se", "mu_fixed", "converged", "status")
 _REQUIRED = ("span_id", "converged")
 _LOG = logging.getLogger(__name__)
 
@@ -345,6 +345,17 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     log.info("%s: %s %s after %d evaluations (+%d for the Hessian) in %.1f s: J(s_opt) = %.3f (%s)",
              span_type.name, s.method, "converged" if result.converged else "did NOT converge",
              result.n_evaluations, result.n_hessian_evaluations, result.time_s, result.j_opt, result.message)
+    if not result.converged:
+        what = (f"span type {span_type.name}: the {s.method} optimiser did not converge after "
+                f"{result.n_evaluations} evaluations ({result.message})")
+        if s.on_non_convergence == "fail":
+            raise ConvergenceError(f"{what}; raise identification.optimiser.max_evaluations, or set "
+                                   "identification.on_non_convergence: mark to write outputs marked not converged")
+        log.warning("%s; outputs are written with status not_converged (identification.on_non_convergence: mark)",
+                    what)
+    if not result.standard_errors_available:
+        log.warning("%s: the observed information is not positive definite at s_opt: no standard errors "
+                    "(status %s)", span_type.name, result.status)
     normality = normality_report(lik.model, start, result, data, n_samples=s.normality_n_samples, seed=s.seed + 3,
                                  system_height_mode=s.system_height_mode, alpha=s.normality_alpha)
     for key, value in normality.items():
@@ -378,7 +389,9 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
 
 def s_opt_table(result: IdentificationResult) -> pd.DataFrame:
     """s_opt with standard errors: columns ``parameter``, ``mu``, ``sigma``, ``mu_se``, ``sigma_se``,
-    ``mu_fixed`` (SI, in the unit of each parameter's name; se 0 where not identified)."""
+    ``mu_fixed`` (SI, in the unit of each parameter's name; se 0 where not identified, NaN where
+    the information is singular), ``converged`` and ``status``
+    (:attr:`.result.IdentificationResult.status`, the same on every row)."""
     return pd.DataFrame(result.table_rows(), columns=list(S_OPT_COLUMNS))
 
 
@@ -440,6 +453,11 @@ def markdown_report(run: IdentificationRun, *, source: str = "corrected.parquet"
     n = st.n_droppers
     random = set(s.random_names(n))
     lines = [f"# Stochastic identification — span type {st.name}", ""]
+    if r.status != "ok":
+        why = (f"the {r.method} optimiser did NOT converge ({r.message}); s_opt below is only the best point "
+               "evaluated" if not r.converged else
+               "the observed information is not positive definite at s_opt: no standard errors")
+        lines += [f"> **Status: {r.status}** — {why}. Do not use these laws as identified.", ""]
     lines += [f"Maximum likelihood of the measured static deflections W under independent Gamma inputs "
               f"(paper §3, SPEC §6). Data: {run.data_w_m.shape[0]} spans from `{source}` (converged "
               f"correction); {len(run.left_out)} left out.", ""]

@@ -9,7 +9,10 @@ from scipy import special
 
 from .design import RandomInput
 
-__all__ = ["IdentificationResult", "ParameterEstimate"]
+__all__ = ["STATUSES", "IdentificationResult", "ParameterEstimate"]
+
+#: Values of :attr:`IdentificationResult.status`, written to every output a program reads.
+STATUSES = ("ok", "not_converged", "singular_information")
 
 
 @dataclass(frozen=True)
@@ -73,6 +76,23 @@ class IdentificationResult:
     slack_fraction: float
 
     @property
+    def standard_errors_available(self) -> bool:
+        """True when the observed information was positive definite (finite standard errors)."""
+        return bool(np.all(np.isfinite(self.theta_covariance)))
+
+    @property
+    def status(self) -> str:
+        """``"ok"``; ``"not_converged"`` when the optimiser stopped without converging (its
+        s_opt is then only the best point evaluated); else ``"singular_information"`` when −H is
+        not positive definite at s_opt (no standard errors: s_opt may sit on a ridge or at the
+        edge of the box)."""
+        if not self.converged:
+            return "not_converged"
+        if not self.standard_errors_available:
+            return "singular_information"
+        return "ok"
+
+    @property
     def means(self) -> np.ndarray:
         return np.array([e.mu for e in self.estimates])
 
@@ -85,9 +105,11 @@ class IdentificationResult:
         return tuple(RandomInput(e.parameter, e.mu, e.sigma) for e in self.estimates)
 
     def table_rows(self) -> list[dict]:
-        """s_opt table: parameter, mu, sigma, mu_se, sigma_se, mu_fixed."""
+        """s_opt table: parameter, mu, sigma, mu_se, sigma_se, mu_fixed, converged, status (the
+        last two describe the whole run and repeat on every row, so no reader can miss them)."""
         return [dict(parameter=e.parameter, mu=e.mu, sigma=e.sigma, mu_se=e.mu_se,
-                     sigma_se=e.sigma_se, mu_fixed=e.mu_fixed) for e in self.estimates]
+                     sigma_se=e.sigma_se, mu_fixed=e.mu_fixed, converged=self.converged, status=self.status)
+                for e in self.estimates]
 
     def intervals(self, level: float = 0.95) -> list[dict]:
         """Wald confidence intervals, built in the optimisation coordinates θ.

@@ -1,7 +1,9 @@
 """Settings of the identification rule, read from the ``identification`` block of the config.
 
-Every key is documented in ``config/README.md``; :meth:`IdentificationSettings.from_mapping`
-refuses unknown keys and bad values with a :class:`~catenary.errors.ConfigError` naming the key.
+Every key is documented in ``config/README.md``. The settings are checked against the
+``identification`` block of the shipped config schema (:mod:`catenary.schema`), the same file
+the workflow validates its config with; an unknown key or a bad value is a
+:class:`~catenary.errors.ConfigError` naming the key.
 
 Input names
 -----------
@@ -27,10 +29,8 @@ import numpy as np
 from ..config import Catenary, SpanType
 from ..dropper_table import nominal_dropper_lengths
 from ..errors import ConfigError
-from .design import (DESIGN_METHODS, MESSENGER_TENSION, SYSTEM_HEIGHT, SYSTEM_HEIGHT_MODES, RandomInput,
-                     dropper_names)
-from .fit import METHODS
-from .likelihood import BANDWIDTH_RULES, ESTIMATORS
+from ..schema import check
+from .design import MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, dropper_names
 
 __all__ = ["DETERMINISTIC_CV", "DROPPER_GROUP", "IdentificationSettings"]
 
@@ -40,40 +40,16 @@ DROPPER_GROUP = "dropper_lengths_m"
 DETERMINISTIC_CV = 1e-9
 
 
-def _number(value: Any) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
-        and bool(np.isfinite(value))
-
-
-def _positive(where: str, value: Any) -> float:
-    if not (_number(value) and value > 0):
-        raise ConfigError(f"{where}: expected a positive number, got {value!r}")
-    return float(value)
-
-
-def _integer(where: str, value: Any, low: int) -> int:
-    if isinstance(value, float) and value.is_integer():
-        value = int(value)
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-        raise ConfigError(f"{where}: expected an integer ≥ {low}, got {value!r}")
-    return int(value)
-
-
-def _choice(where: str, value: Any, options: tuple[str, ...]) -> str:
-    if value not in options:
-        raise ConfigError(f"{where}: expected one of {', '.join(options)}, got {value!r}")
-    return str(value)
-
-
-def _known_keys(where: str, mapping: Mapping, known: set[str]) -> dict:
-    if mapping is None:
-        return {}
-    if not isinstance(mapping, Mapping):
-        raise ConfigError(f"{where}: expected a mapping, got {mapping!r}")
-    unknown = sorted(set(mapping) - known)
-    if unknown:
-        raise ConfigError(f"{where}: unknown key(s) {', '.join(map(str, unknown))}; known: {', '.join(sorted(known))}")
-    return dict(mapping)
+def _merged(base: Mapping, over: Mapping | None) -> dict:
+    """``base`` with ``over`` laid on it, nested mappings merged key by key (unknown keys kept,
+    so that the schema reports them)."""
+    out = dict(base)
+    if not isinstance(over, Mapping):
+        return over if over is not None else out
+    for key, value in over.items():
+        out[key] = _merged(base[key], value) if isinstance(base.get(key), Mapping) and isinstance(value, Mapping) \
+            else value
+    return out
 
 
 @dataclass(frozen=True)
@@ -100,6 +76,10 @@ class IdentificationSettings:
         Start σ of ΔH [m].
     system_height_mode : {"shared", "independent"}
         How ΔH_left and ΔH_right follow the ΔH law (:mod:`.design`).
+    on_non_convergence : {"fail", "mark"}
+        When the optimiser stops without converging: ``"fail"`` raises
+        :class:`~catenary.errors.ConvergenceError` (the rule fails, no output); ``"mark"`` writes
+        every output with ``status`` ``not_converged``.
     n_samples : int
         Design size N of J.
     design : {"sobol", "lhs"}
@@ -140,6 +120,7 @@ class IdentificationSettings:
     system_height_mean_m: str | float = "design"
     system_height_sigma_m: float = 0.005
     system_height_mode: str = "independent"
+    on_non_convergence: str = "fail"
     n_samples: int = 10_000
     design: str = "sobol"
     estimator: str = "gaussian"
@@ -158,6 +139,14 @@ class IdentificationSettings:
     normality_alpha: float = 0.05
     normality_n_samples: int = 10_000
 
+    def __post_init__(self) -> None:
+        check(self.as_mapping(), "config", "identification")
+        # Integers given as 1e4 in YAML arrive as floats: store them as int.
+        for key in ("n_samples", "max_evaluations", "band_n_samples", "band_n_points", "normality_n_samples",
+                    "seed"):
+            object.__setattr__(self, key, int(getattr(self, key)))
+        object.__setattr__(self, "estimators_n_samples", tuple(int(n) for n in self.estimators_n_samples))
+
     @classmethod
     def from_mapping(cls, mapping: Mapping[str, Any] | None, where: str = "identification") -> "IdentificationSettings":
         """Settings from the config block (missing keys take their defaults).
@@ -165,103 +154,51 @@ class IdentificationSettings:
         Raises
         ------
         ConfigError
-            On an unknown key or a bad value; the message names the key.
+            On an unknown key or a bad value (checked against the config schema); the message
+            names the key.
         """
-        top = _known_keys(where, mapping, {"random_inputs", "free_means", "start", "system_height_mode",
-                                           "n_samples", "design", "estimator", "bandwidth", "seed",
-                                           "optimiser", "estimators_n_samples", "band", "normality"})
-        kw: dict[str, Any] = {}
-        for key in ("random_inputs", "free_means"):
-            if key in top:
-                value = top[key]
-                if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
-                    raise ConfigError(f"{where}.{key}: expected a list of input names, got {value!r}")
-                kw[key] = tuple(value)
-        start = _known_keys(f"{where}.start", top.get("start"),
-                            {"dropper_length_m", MESSENGER_TENSION, SYSTEM_HEIGHT})
-        for key, mean_kw, sigma_kw in (("dropper_length_m", "dropper_mean_m", "dropper_sigma_m"),
-                                       (MESSENGER_TENSION, "messenger_tension_mean_n", "messenger_tension_sigma_n"),
-                                       (SYSTEM_HEIGHT, "system_height_mean_m", "system_height_sigma_m")):
-            law = _known_keys(f"{where}.start.{key}", start.get(key), {"mean", "sigma"})
-            for sub, name in (("mean", mean_kw), ("sigma", sigma_kw)):
-                if sub in law:
-                    value = law[sub]
-                    kw[name] = tuple(value) if isinstance(value, list) else value
-        if "system_height_mode" in top:
-            kw["system_height_mode"] = top["system_height_mode"]
-        for key in ("n_samples", "design", "estimator", "bandwidth", "seed"):
-            if key in top:
-                kw[key] = top[key]
-        optimiser = _known_keys(f"{where}.optimiser", top.get("optimiser"),
-                                {"method", "max_evaluations", "initial_step", "xtol", "ftol", "hessian_step"})
-        kw.update(optimiser)
-        if "estimators_n_samples" in top:
-            value = top["estimators_n_samples"]
-            if not isinstance(value, (list, tuple)):
-                raise ConfigError(f"{where}.estimators_n_samples: expected a list of sample sizes, got {value!r}")
-            kw["estimators_n_samples"] = tuple(value)
-        band = _known_keys(f"{where}.band", top.get("band"), {"level", "n_samples", "n_points"})
-        kw.update({f"band_{k}": v for k, v in band.items()})
-        normality = _known_keys(f"{where}.normality", top.get("normality"), {"alpha", "n_samples"})
-        kw.update({f"normality_{k}": v for k, v in normality.items()})
-        return cls(**kw)._checked(where)
+        raw = _merged(cls().as_mapping(), mapping)
+        check(raw, "config", "identification", where=where)
+        start, optimiser = raw["start"], raw["optimiser"]
 
-    def _checked(self, where: str) -> "IdentificationSettings":
-        """Validate every value (raises ConfigError naming the key); returns ``self``."""
-        names = {DROPPER_GROUP, MESSENGER_TENSION, SYSTEM_HEIGHT}
-        for key in ("random_inputs", "free_means"):
-            for name in getattr(self, key):
-                if name not in names and not _is_dropper_name(name):
-                    raise ConfigError(f"{where}.{key}: unknown input {name!r}; expected {DROPPER_GROUP}, "
-                                      f"dropper_<i>_length_m, {MESSENGER_TENSION} or {SYSTEM_HEIGHT}")
-        if not self.random_inputs:
-            raise ConfigError(f"{where}.random_inputs: expected at least one random input")
-        if isinstance(self.dropper_mean_m, str):
-            if self.dropper_mean_m != "nominal":
-                raise ConfigError(f"{where}.start.dropper_length_m.mean: expected 'nominal' or a list of "
-                                  f"lengths [m], got {self.dropper_mean_m!r}")
-        else:
-            for v in self.dropper_mean_m:
-                _positive(f"{where}.start.dropper_length_m.mean", v)
-        for v in (self.dropper_sigma_m if isinstance(self.dropper_sigma_m, tuple) else (self.dropper_sigma_m,)):
-            _positive(f"{where}.start.dropper_length_m.sigma", v)
-        for key, value in ((MESSENGER_TENSION, self.messenger_tension_mean_n), (SYSTEM_HEIGHT, self.system_height_mean_m)):
-            if value != "design":
-                _positive(f"{where}.start.{key}.mean ('design' or a value)", value)
-        if self.messenger_tension_sigma_n is not None:
-            _positive(f"{where}.start.{MESSENGER_TENSION}.sigma", self.messenger_tension_sigma_n)
-        _positive(f"{where}.start.{SYSTEM_HEIGHT}.sigma", self.system_height_sigma_m)
-        _choice(f"{where}.system_height_mode", self.system_height_mode, SYSTEM_HEIGHT_MODES)
-        _integer(f"{where}.n_samples", self.n_samples, 16)
-        _choice(f"{where}.design", self.design, DESIGN_METHODS)
-        _choice(f"{where}.estimator", self.estimator, ESTIMATORS)
-        _choice(f"{where}.bandwidth", self.bandwidth, BANDWIDTH_RULES)
-        _integer(f"{where}.seed", self.seed, 0)
-        _choice(f"{where}.optimiser.method", self.method, METHODS)
-        _integer(f"{where}.optimiser.max_evaluations", self.max_evaluations, 1)
-        _positive(f"{where}.optimiser.initial_step", self.initial_step)
-        for key in ("xtol", "ftol"):
-            if getattr(self, key) is not None:
-                _positive(f"{where}.optimiser.{key}", getattr(self, key))
-        _positive(f"{where}.optimiser.hessian_step", self.hessian_step)
-        if not self.estimators_n_samples:
-            raise ConfigError(f"{where}.estimators_n_samples: expected at least one sample size")
-        for n in self.estimators_n_samples:
-            _integer(f"{where}.estimators_n_samples", n, 16)
-        if not (_number(self.band_level) and 0 < self.band_level < 1):
-            raise ConfigError(f"{where}.band.level: expected a probability in (0, 1), got {self.band_level!r}")
-        _integer(f"{where}.band.n_samples", self.band_n_samples, 100)
-        _integer(f"{where}.band.n_points", self.band_n_points, 11)
-        if not (_number(self.normality_alpha) and 0 < self.normality_alpha < 1):
-            raise ConfigError(f"{where}.normality.alpha: expected a level in (0, 1), got {self.normality_alpha!r}")
-        _integer(f"{where}.normality.n_samples", self.normality_n_samples, 16)
-        # Integers given as 1e4 in YAML arrive as floats: store them as int.
-        for key, values in (("n_samples", self.n_samples), ("max_evaluations", self.max_evaluations),
-                            ("band_n_samples", self.band_n_samples), ("band_n_points", self.band_n_points),
-                            ("normality_n_samples", self.normality_n_samples), ("seed", self.seed)):
-            object.__setattr__(self, key, int(values))
-        object.__setattr__(self, "estimators_n_samples", tuple(int(n) for n in self.estimators_n_samples))
-        return self
+        def value(v):
+            return tuple(v) if isinstance(v, list) else v
+
+        return cls(
+            random_inputs=tuple(raw["random_inputs"]), free_means=tuple(raw["free_means"]),
+            dropper_mean_m=value(start["dropper_length_m"]["mean"]),
+            dropper_sigma_m=value(start["dropper_length_m"]["sigma"]),
+            messenger_tension_mean_n=start[MESSENGER_TENSION]["mean"],
+            messenger_tension_sigma_n=start[MESSENGER_TENSION]["sigma"],
+            system_height_mean_m=start[SYSTEM_HEIGHT]["mean"], system_height_sigma_m=start[SYSTEM_HEIGHT]["sigma"],
+            system_height_mode=raw["system_height_mode"], on_non_convergence=raw["on_non_convergence"],
+            n_samples=raw["n_samples"], design=raw["design"], estimator=raw["estimator"],
+            bandwidth=raw["bandwidth"], seed=raw["seed"], **optimiser,
+            estimators_n_samples=tuple(raw["estimators_n_samples"]),
+            **{f"band_{k}": v for k, v in raw["band"].items()},
+            **{f"normality_{k}": v for k, v in raw["normality"].items()})
+
+    def as_mapping(self) -> dict[str, Any]:
+        """The settings as the config block ``identification`` (the schema's layout)."""
+        def listed(v):
+            return list(v) if isinstance(v, tuple) else v
+
+        return {
+            "random_inputs": list(self.random_inputs), "free_means": list(self.free_means),
+            "start": {"dropper_length_m": {"mean": listed(self.dropper_mean_m), "sigma": listed(self.dropper_sigma_m)},
+                      MESSENGER_TENSION: {"mean": self.messenger_tension_mean_n,
+                                          "sigma": self.messenger_tension_sigma_n},
+                      SYSTEM_HEIGHT: {"mean": self.system_height_mean_m, "sigma": self.system_height_sigma_m}},
+            "system_height_mode": self.system_height_mode, "on_non_convergence": self.on_non_convergence,
+            "n_samples": self.n_samples, "design": self.design, "estimator": self.estimator,
+            "bandwidth": self.bandwidth, "seed": self.seed,
+            "optimiser": {"method": self.method, "max_evaluations": self.max_evaluations,
+                          "initial_step": self.initial_step, "xtol": self.xtol, "ftol": self.ftol,
+                          "hessian_step": self.hessian_step},
+            "estimators_n_samples": list(self.estimators_n_samples),
+            "band": {"level": self.band_level, "n_samples": self.band_n_samples, "n_points": self.band_n_points},
+            "normality": {"alpha": self.normality_alpha, "n_samples": self.normality_n_samples},
+        }
 
     def as_dict(self) -> dict[str, Any]:
         """Flat view of the settings (for logs and the report)."""

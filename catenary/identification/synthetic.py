@@ -10,9 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import NoTautSolutionError
 from ..fast import FastSpanModel
 
-__all__ = ["simulate_deflections"]
+__all__ = ["MAX_DRAWS_PER_SPAN", "simulate_deflections"]
+
+#: Draws allowed per requested span before giving up (a taut fraction below 1/1000).
+MAX_DRAWS_PER_SPAN = 1000
 
 
 def simulate_deflections(model: FastSpanModel, means: np.ndarray, sigmas: np.ndarray, n_spans: int, *,
@@ -36,6 +40,12 @@ def simulate_deflections(model: FastSpanModel, means: np.ndarray, sigmas: np.nda
     -------
     numpy.ndarray, shape (K, n)
         W of taut spans only.
+
+    Raises
+    ------
+    NoTautSolutionError
+        If fewer than one draw in ``MAX_DRAWS_PER_SPAN`` is taut (the laws hardly describe a
+        taut span): the redrawing stops there instead of looping on.
     """
     means = np.asarray(means, dtype=float)
     sigmas = np.asarray(sigmas, dtype=float)
@@ -43,9 +53,15 @@ def simulate_deflections(model: FastSpanModel, means: np.ndarray, sigmas: np.nda
     n = means.size - 2
     rng = np.random.default_rng(seed)
     out = []
-    n_found = 0
+    n_found = n_drawn = 0
+    max_draws = MAX_DRAWS_PER_SPAN * n_spans + 16
     while n_found < n_spans:
+        if n_drawn >= max_draws:
+            raise NoTautSolutionError(
+                f"{n_found} taut spans in {n_drawn} draws (slack fraction {1 - n_found / n_drawn:.4f}): these laws "
+                f"hardly describe a taut span; {n_spans} taut spans would need more than {max_draws} draws")
         m = 2 * (n_spans - n_found) + 16
+        n_drawn += m
         x = rng.gamma(shape, scale, size=(m, n + 2))
         right = rng.gamma(shape[-1], scale[-1], size=m) if system_height_mode == "independent" else x[:, -1]
         res = model.evaluate(x[:, :n], x[:, n], x[:, n + 1], right)
