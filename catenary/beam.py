@@ -12,7 +12,7 @@ Two families:
   continuous) is far shorter than a 0.5 m element; cubic elements there misplace a
   continuous wire's far field by a large fraction of (slope jump × 8 cm) ≈ 3 mm.
 * **Hermite cubic** matrices (Przemieniecki, *Theory of Matrix Structural Analysis*, 1968):
-  bending and geometric stiffness, consistent mass and loads; used for the mass and for
+  geometric stiffness (the string limit EI = 0), consistent mass and loads; used for the mass and for
   smooth interpolation between nodes.
 
 All functions take arrays of element lengths and return stacked matrices.
@@ -21,25 +21,6 @@ All functions take arrays of element lengths and return stacked matrices.
 from __future__ import annotations
 
 import numpy as np
-
-
-def bending_stiffness(h: np.ndarray, ei: float) -> np.ndarray:
-    """Bending stiffness matrices, shape (n, 4, 4) [N/m, N, N·m].
-
-    Parameters
-    ----------
-    h : array_like
-        Element lengths [m].
-    ei : float
-        Bending stiffness EI [N·m²].
-    """
-    h = np.asarray(h, dtype=float)[:, None, None]
-    k = np.array([[12.0, 6.0, -12.0, 6.0],
-                  [6.0, 4.0, -6.0, 2.0],
-                  [-12.0, -6.0, 12.0, -6.0],
-                  [6.0, 2.0, -6.0, 4.0]])
-    p = _powers(h)
-    return ei * k * p / h**3
 
 
 def geometric_stiffness(h: np.ndarray, tension: float) -> np.ndarray:
@@ -105,8 +86,12 @@ def _powers(h: np.ndarray) -> np.ndarray:
     return h ** (rot[:, None] + rot[None, :])
 
 
-def _exact_basis_matrix(h: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
-    """Nodal values of the basis {1, x, e^{−λx}, e^{−λ(h−x)}}: C (n, 4, 4) and a = e^{−λh}."""
+def exact_basis_matrix(h: np.ndarray, lam: float) -> tuple[np.ndarray, np.ndarray]:
+    """Nodal values of the basis {1, x, e^{−λx}, e^{−λ(h−x)}}: C (n, 4, 4) and a = e^{−λh}.
+
+    ``C⁻¹`` maps an element's nodal DOFs to the coefficients of its exact tensioned-beam
+    solution (used by the dynamic model for the contact point's shape functions).
+    """
     a = np.exp(-lam * h)
     one, zero = np.ones_like(h), np.zeros_like(h)
     c = np.stack([
@@ -128,7 +113,7 @@ def tensioned_stiffness(h: np.ndarray, ei: float, tension: float) -> np.ndarray:
     if ei == 0.0:
         return geometric_stiffness(h, tension)
     lam = np.sqrt(tension / ei)
-    c, a = _exact_basis_matrix(h, lam)
+    c, a = exact_basis_matrix(h, lam)
     g = np.zeros(h.shape + (4, 4))
     g[:, 1, 1] = tension * h
     g[:, 1, 2] = g[:, 2, 1] = -tension * (1.0 - a)
@@ -146,7 +131,7 @@ def tensioned_uniform_load(h: np.ndarray, q: float, ei: float, tension: float) -
     if ei == 0.0:
         return uniform_load(h, q)
     lam = np.sqrt(tension / ei)
-    c, a = _exact_basis_matrix(h, lam)
+    c, a = exact_basis_matrix(h, lam)
     integral = np.stack([h, 0.5 * h * h, (1.0 - a) / lam, (1.0 - a) / lam], axis=-1)
     return q * (np.swapaxes(np.linalg.inv(c), -1, -2) @ integral[..., None])[..., 0]
 
@@ -161,7 +146,7 @@ def tensioned_shape_functions(xi: np.ndarray, h: np.ndarray, ei: float, tension:
     if ei == 0.0:
         return shape_functions(xi, h)
     lam = np.sqrt(tension / ei)
-    c, _ = _exact_basis_matrix(h.ravel(), lam)
+    c, _ = exact_basis_matrix(h.ravel(), lam)
     x = (xi * h).ravel()
     hr = h.ravel()
     phi = np.stack([np.ones_like(x), x, np.exp(-lam * x), np.exp(-lam * (hr - x))], axis=-1)

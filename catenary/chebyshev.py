@@ -47,12 +47,6 @@ class ChebyshevInterpolant:
         """Interpolated values at ``points`` (N, d), shape (N, m)."""
         return self.basis(points) @ self.coefficients
 
-    def contains(self, points: np.ndarray, rtol: float = 1e-12) -> np.ndarray:
-        """True for points inside the box (with a relative tolerance)."""
-        points = np.atleast_2d(points)
-        span = np.maximum(self.upper - self.lower, np.abs(self.upper) * rtol)
-        return np.all((points >= self.lower - rtol * span) & (points <= self.upper + rtol * span), axis=1)
-
 
 def chebyshev_basis(t: np.ndarray, degree: int) -> np.ndarray:
     """Chebyshev polynomials T_0..T_degree at ``t`` ∈ [−1, 1], shape (N, degree + 1)."""

@@ -99,7 +99,7 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
         # CW with its (pulling) dropper points prescribed: the reactions there are the dropper tensions.
         while True:
             held = ~slack
-            u, k, f = model._linear_solve(no_droppers, model.f_gravity, model.dropper_cw_dof[held], target[held])
+            u, k, f = model.linear_solve(no_droppers, model.f_gravity, model.dropper_cw_dof[held], target[held])
             force = np.where(held, (k @ u - f)[model.dropper_cw_dof], 0.0)
             pushing = held & (force <= 0)
             if not np.any(pushing):
@@ -116,7 +116,7 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
         loads = model.f_gravity.copy()
         np.add.at(loads, model.dropper_mw_dof, -force)
         np.add.at(loads, model.dropper_cw_dof, force)
-        u_mw, _, _ = model._linear_solve(no_droppers, loads)
+        u_mw, _, _ = model.linear_solve(no_droppers, loads)
         stretched = u_mw[model.dropper_mw_dof] - np.where(slack, u[model.dropper_cw_dof], target)
         if np.any(section.clamp_offset_m):
             vertical = stretched - force / model.dropper_stiffness_n_m  # fixed point: k_v depends on L

@@ -151,15 +151,8 @@ class CatenaryDynamics:
             self._lam = np.sqrt(section.contact_tension_by_span_n[mesh.element_span] / cw.bending_stiffness_n_m2)
             pairs = np.column_stack([np.round(h, 12), self._lam])
             unique, inverse = np.unique(pairs, axis=0, return_inverse=True)
-            c, _ = beam._exact_basis_matrix(unique[:, 0], unique[:, 1])
+            c, _ = beam.exact_basis_matrix(unique[:, 0], unique[:, 1])
             self._basis_inverse = np.linalg.inv(c)[inverse.ravel()]
-
-    def full_dofs(self, u_free: np.ndarray) -> np.ndarray:
-        """All nodal DOFs (fixed ones at their prescribed values) from free ones."""
-        u = np.zeros(DOFS_PER_NODE * self.mesh.n_nodes)
-        u[self.fixed] = self.fixed_values
-        u[self.free] = u_free
-        return u
 
     def contact_vector(self, chainage_m: float) -> tuple[np.ndarray, np.ndarray]:
         """Free-DOF indices and exact shape-function values of the CW at ``chainage_m``."""

@@ -244,7 +244,7 @@ class StaticModel:
         taut = np.ones(n_d, dtype=bool) if initial_taut is None else np.asarray(initial_taut, dtype=bool).copy()
         seen = set()
         for iteration in range(1, max_iterations + 1):
-            u, k_total, f_total = self._linear_solve(taut, f_ext)
+            u, k_total, f_total = self.linear_solve(taut, f_ext)
             elongation = u[self.dropper_mw_dof] - u[self.dropper_cw_dof] - self.dropper_rest_length_m
             new_taut = elongation > 0.0
             if np.array_equal(new_taut, taut):
@@ -266,11 +266,24 @@ class StaticModel:
             cw_reaction_n=residual[self.fixed[:n_masts]], mw_reaction_n=residual[self.fixed[n_masts:]],
             iterations=iteration)
 
-    def _linear_solve(self, taut: np.ndarray, f_ext: np.ndarray,
+    def linear_solve(self, taut: np.ndarray, f_ext: np.ndarray,
                       extra_fixed: np.ndarray | None = None, extra_values: np.ndarray | None = None):
-        """Solve with the given taut droppers; optional extra prescribed DOFs.
+        """One linear solve with the droppers ``taut`` held in tension (no active set).
 
-        Returns the DOFs, the total stiffness and load (for reactions ``K u − f``).
+        Parameters
+        ----------
+        taut : numpy.ndarray of bool
+            Droppers carrying their axial stiffness.
+        f_ext : numpy.ndarray
+            External nodal loads [N] (e.g. ``f_gravity``).
+        extra_fixed, extra_values : numpy.ndarray, optional
+            Further prescribed DOFs and their values [m] (the inverse static solver prescribes
+            the CW at the droppers and reads the dropper tensions as reactions).
+
+        Returns
+        -------
+        u, k, f
+            The DOFs, the total stiffness and load (reactions are ``k @ u − f``).
         """
         kd, fd = self.dropper_matrices(taut)
         k = (self.k_wires + kd).tocsr()
