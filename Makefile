@@ -20,14 +20,16 @@ setup: $(STAMP)
 run: setup
 	$(BIN)/snakemake --cores $(CORES) --configfile config/config.yaml
 
+# The small profile runs before pytest: the `pipeline` tests check its results against its truth.
 # pytest runs last so that its summary is the closing line.
 test: setup
 	$(BIN)/snakemake --lint
 	$(BIN)/snakemake --dry-run --quiet --configfile config/config.yaml
 	$(BIN)/snakemake --dry-run --quiet --configfile config/test.yaml
 	$(BIN)/snakemake --cores $(CORES) --configfile config/test.yaml
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -m 'not slow'
 
+# Calibration of the standard errors and convergence of the dynamic model (CI runs it after make test).
 test-slow: setup
 	$(BIN)/python -m pytest -m slow
 

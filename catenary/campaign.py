@@ -176,7 +176,13 @@ def projection_round_trip(spans: pd.DataFrame, truth: pd.DataFrame) -> dict[str,
 
 def correction_round_trip(corrected: pd.DataFrame, spans: pd.DataFrame, truth: pd.DataFrame) -> dict[str, float]:
     """Corrected static W (converged spans) and the uncorrected projected W against the truth's
-    static W of the same spans [m]: the correction's accuracy and the size of the correction."""
+    static W of the same spans [m]: the correction's accuracy and the size of the correction.
+
+    ``max_abs_mean_error_m`` and ``max_abs_mean_error_z`` look for a bias the RMS would hide: at
+    each dropper the mean error over the spans, and that mean in units of its standard error
+    (sample standard deviation / √n); the largest over the droppers. A correction with the
+    wrong measuring force, for example, leaves a mid-span-heavy mean error.
+    """
     ok = corrected[corrected["converged"]]
     n_d = len([c for c in ok.columns if c.startswith("w") and c.endswith("_m")])
     cols = [f"w{i}_m" for i in range(1, n_d + 1)]
@@ -186,11 +192,77 @@ def correction_round_trip(corrected: pd.DataFrame, spans: pd.DataFrame, truth: p
     error = merged[cols].to_numpy() - merged[static].to_numpy()
     raw_error = raw[cols].to_numpy() - raw[static].to_numpy()
     per_span = np.sqrt(np.mean(error ** 2, axis=1)) if len(merged) else np.zeros(0)
+    if len(merged) > 1:
+        mean_error = error.mean(axis=0)
+        z = np.abs(mean_error) / (error.std(axis=0, ddof=1) / np.sqrt(len(merged)))
+        bias_m, bias_z = float(np.max(np.abs(mean_error))), float(np.max(z))
+    else:
+        bias_m = bias_z = float("nan")
     return {
         "n_spans": float(len(corrected)),
         "n_converged": float(len(ok)),
         "rms_corrected_vs_static_m": float(np.sqrt(np.mean(error ** 2))) if len(merged) else float("nan"),
         "max_abs_corrected_vs_static_m": float(np.max(np.abs(error))) if len(merged) else float("nan"),
         "max_span_rms_corrected_vs_static_m": float(np.max(per_span)) if per_span.size else float("nan"),
+        "max_abs_mean_error_m": bias_m,
+        "max_abs_mean_error_z": bias_z,
         "rms_uncorrected_vs_static_m": float(np.sqrt(np.mean(raw_error ** 2))) if len(raw) else float("nan"),
     }
+
+
+def realized_truth(truth: pd.DataFrame, span_ids) -> dict[str, tuple[float, float]]:
+    """Sample mean and standard deviation (ddof 1) of the true inputs over the spans ``span_ids``.
+
+    T_MW and every dropper length are per span; ΔH is per mast, so its figures are over the
+    distinct masts of those spans (a mast shared by two spans counts once, identified by its
+    chainage). Keys are the identification's input names (``messenger_tension_n``,
+    ``system_height_m``, ``dropper_<i>_length_m``); values ``(mean, std)`` in SI units.
+    """
+    spans = truth[truth["span_id"].isin(list(span_ids))]
+    masts = pd.concat([spans[["start_chainage_m", "system_height_left_m"]].set_axis(["chainage_m", "dh_m"], axis=1),
+                       spans[["end_chainage_m", "system_height_right_m"]].set_axis(["chainage_m", "dh_m"], axis=1)])
+    masts = masts.assign(chainage_m=masts["chainage_m"].round(6)).drop_duplicates("chainage_m")
+    out = {"messenger_tension_n": (float(spans["messenger_tension_n"].mean()),
+                                   float(spans["messenger_tension_n"].std(ddof=1))),
+           "system_height_m": (float(masts["dh_m"].mean()), float(masts["dh_m"].std(ddof=1)))}
+    for column in [c for c in truth.columns if c.startswith("dropper_") and c.endswith("_length_m")]:
+        out[column] = (float(spans[column].mean()), float(spans[column].std(ddof=1)))
+    return out
+
+
+def identification_round_trip(s_opt: pd.DataFrame, corrected: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:
+    """Identified laws against the realized truth of the spans they were identified from.
+
+    Parameters
+    ----------
+    s_opt : pandas.DataFrame
+        The identification's ``s_opt.csv`` (``parameter``, ``mu``, ``sigma``, ``mu_se``,
+        ``sigma_se``, ``mu_fixed``, ``status``).
+    corrected : pandas.DataFrame
+        The span type's ``corrected.parquet``: its converged spans are those identified from.
+    truth : pandas.DataFrame
+        The campaign's truth table.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per identified quantity (free means and σ): ``parameter``, ``statistic``
+        (``mu`` or ``sigma``), ``estimate``, ``standard_error``, ``realized`` (sample mean or
+        standard deviation over the spans used, :func:`realized_truth`), ``z`` =
+        (estimate − realized) / standard_error, ``n_spans`` and the run's ``status``.
+    """
+    used = corrected.loc[corrected["converged"], "span_id"]
+    realized = realized_truth(truth, used)
+    rows = []
+    for r in s_opt.itertuples(index=False):
+        if r.parameter not in realized:
+            continue
+        stats = ([] if r.mu_fixed else [("mu", r.mu, r.mu_se, realized[r.parameter][0])])
+        stats.append(("sigma", r.sigma, r.sigma_se, realized[r.parameter][1]))
+        for statistic, estimate, se, true in stats:
+            rows.append({"parameter": r.parameter, "statistic": statistic, "estimate": float(estimate),
+                         "standard_error": float(se), "realized": true,
+                         "z": (float(estimate) - true) / float(se) if se > 0 else float("nan"),
+                         "n_spans": int(len(used)), "status": r.status})
+    return pd.DataFrame(rows, columns=["parameter", "statistic", "estimate", "standard_error", "realized", "z",
+                                       "n_spans", "status"])

@@ -53,8 +53,9 @@ def measurement_outputs():
 
 
 def identification_outputs():
-    """Outputs of rule identify (workflow/rules/identification.smk), one folder per span type."""
-    return expand(
+    """Outputs of rule identify (workflow/rules/identification.smk), one folder per span type,
+    and the check against the truth on campaign runs."""
+    outputs = expand(
         [
             f"{RESULTS}/{{span_type}}/identification/{name}"
             for name in ("s_opt.csv", "trace.parquet", "estimators.png", "normality.json", "band.png",
@@ -62,6 +63,9 @@ def identification_outputs():
         ],
         span_type=SPAN_TYPES,
     )
+    if config["recording"].startswith(f"{RESULTS}/campaign/"):
+        outputs.append(f"{RESULTS}/validation/identification_check.csv")
+    return outputs
 
 
 def inversion_outputs():

@@ -23,3 +23,21 @@ rule identify:
         "../envs/catenary.yaml"
     script:
         "../../scripts/identify.py"
+
+
+rule identification_check:
+    """Validation only: identified laws against the realized truth of the spans used (z-scores)."""
+    input:
+        s_opt=expand(f"{RESULTS}/{{span_type}}/identification/s_opt.csv", span_type=SPAN_TYPES),
+        corrected=expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES),
+        truth=f"{RESULTS}/campaign/truth.parquet",
+    output:
+        summary=f"{RESULTS}/validation/identification_check.csv",
+    params:
+        span_types=SPAN_TYPES,
+    log:
+        f"{RESULTS}/logs/identification_check.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/identification_check.py"

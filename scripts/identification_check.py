@@ -1,0 +1,19 @@
+"""Rule identification_check (validation only): identified laws against the campaign's realized truth."""
+
+import pandas as pd
+
+from catenary.campaign import identification_round_trip
+from catenary.logs import rule_logger
+from catenary.parquet import read_table
+
+log = rule_logger("identification_check", snakemake.log[0])
+truth = read_table(snakemake.input.truth)
+tables = []
+for span_type, s_opt, corrected in zip(snakemake.params.span_types, snakemake.input.s_opt, snakemake.input.corrected):
+    table = identification_round_trip(pd.read_csv(s_opt), read_table(corrected), truth)
+    table.insert(0, "span_type", span_type)
+    tables.append(table)
+    for row in table.itertuples(index=False):
+        log.info("%s %s %s: %.6g ± %.3g against realized %.6g (z %+.2f)", span_type, row.parameter, row.statistic,
+                 row.estimate, row.standard_error, row.realized, row.z)
+pd.concat(tables, ignore_index=True).to_csv(snakemake.output.summary, index=False, float_format="%.8g")
