@@ -9,7 +9,6 @@ import yaml
 from catenary.campaign import simulate_section
 from catenary.errors import ConfigError
 from catenary.pantograph import load_pantographs
-from catenary.static import solve_static
 from catenary.campaign import section_model
 from catenary.dropper_table import dropper_lengths_for_cw_heights
 from catenary.truth import draw_line, truth_from_dict
@@ -88,9 +87,10 @@ def test_bad_truth_names_the_key(raw, catenary, mutate, key):
         truth_from_dict(bad, catenary)
 
 
-def test_simulated_section_is_consistent_and_deterministic(raw, catenary):
-    r = small(raw, [{"name": "measuring_force_offset", "force_n": 4.0},
-                    {"name": "cw_longitudinal_offset", "mean_m": 0.1}], n_spans=3)
+def quasi_static_section(raw, catenary, effects=()):
+    """One simulated 3-span N2 section (quasi-static pass, no drop-outs or spikes): the drawn
+    line, the spec, the recording and the truth table."""
+    r = small(raw, effects, n_spans=3)
     r["measurement"]["mode"] = "quasi_static"
     r["measurement"]["dropout_rate_per_km"] = 0.0
     r["measurement"]["spike_rate_per_km"] = 0.0
@@ -98,6 +98,13 @@ def test_simulated_section_is_consistent_and_deterministic(raw, catenary):
     line = draw_line(spec, catenary)
     pantograph = load_pantographs(ROOT / "config" / "pantographs.yaml")["measuring"]
     rec, truth = simulate_section(line, 0, catenary, pantograph, spec.measurement, spec.seed)
+    return line, spec, pantograph, rec, truth
+
+
+def test_simulated_section_is_consistent_and_deterministic(raw, catenary):
+    line, spec, pantograph, rec, truth = quasi_static_section(
+        raw, catenary, [{"name": "measuring_force_offset", "force_n": 4.0},
+                        {"name": "cw_longitudinal_offset", "mean_m": 0.1}])
     rec2, truth2 = simulate_section(line, 0, catenary, pantograph, spec.measurement, spec.seed)
     assert rec.equals(rec2) and truth.equals(truth2)
     np.testing.assert_array_equal(truth["cw_offset_m"], 0.1)  # inclined droppers
@@ -180,12 +187,7 @@ def test_truth_static_w_gives_back_the_truth_dropper_lengths(raw, catenary):
     # prescribed at the droppers, from a guess at the system height) must give back the truth's
     # dropper lengths; it is exact (1e-9 m, test_dropper_table). Vertical droppers, where W at the
     # design position is the height of the CW clamp that the inverse solver prescribes.
-    r = small(raw, [], n_spans=3)
-    r["measurement"]["mode"] = "quasi_static"
-    spec = truth_from_dict(r, catenary)
-    line = draw_line(spec, catenary)
-    pantograph = load_pantographs(ROOT / "config" / "pantographs.yaml")["measuring"]
-    _, truth = simulate_section(line, 0, catenary, pantograph, spec.measurement, spec.seed)
+    line, _, _, _, truth = quasi_static_section(raw, catenary)
     section, _ = section_model(line, 0, catenary)
     heights = section.chord_at_droppers(section.cw_support_heights_m) + truth.filter(like="static_w").to_numpy().ravel()
     guess = section.with_dropper_lengths(np.full(27, 1.388))
