@@ -1,6 +1,7 @@
 """Outputs of the identification rule: the band (paper Fig. 10), s_opt.csv, trace.parquet,
 normality.json, the estimator marginals (Fig. 7), the corrected-data reader and the settings."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -11,7 +12,7 @@ import pytest
 from scipy import stats
 
 from catenary.errors import ConfigError, ConvergenceError, InputError
-from catenary.identification.band import SpanProfileOperator, band_abscissae, deflection_band, sample_profiles
+from catenary.identification.band import band_abscissae, deflection_band, sample_profiles
 from catenary.identification.design import draw_unit_design
 from catenary.identification.fit import identify, make_likelihood
 from catenary.identification.likelihood import Likelihood, fit_gaussian, kernel_bandwidth
@@ -22,7 +23,8 @@ from catenary.identification.settings import DETERMINISTIC_CV, IdentificationSet
 from catenary.identification.synthetic import simulate_deflections
 from catenary.normality import henze_zirkler
 from catenary.parquet import read_metadata, write_table
-from catenary.section import single_span
+from catenary.fast import FastSpanModel
+from catenary.section import uniform_section
 from catenary.static import StaticModel
 
 MODE = "independent"
@@ -31,6 +33,12 @@ MODE = "independent"
 @pytest.fixture(scope="module")
 def model(catenary, n2):
     return make_likelihood(n2, catenary, np.zeros((2, 9)), n_samples=2).model
+
+
+@pytest.fixture(scope="module")
+def line_model(catenary, n2):
+    """The span as it hangs in the line: central of three, wires continuous over the masts."""
+    return FastSpanModel(n2, catenary, neighbours=1, messenger_tension_bounds_n=(15_000.0, 26_000.0))
 
 
 @pytest.fixture(scope="module")
@@ -53,26 +61,41 @@ def written(catenary, n2, data, tmp_path_factory):
     return run, paths, settings
 
 
-def test_profile_operator_reproduces_the_fe_solve_of_each_sample(catenary, n2, model, truth):
-    # The band's CW profile (fast-model dropper forces through the CW operator) against a full
-    # FE solve of the same span, along the whole span and at the droppers: the fast model is
-    # exact to ~1e-8 m, so 1e-7 m is a bound with margin, far below any plotted detail.
+@pytest.mark.parametrize("neighbours", [0, 1])
+def test_profile_map_reproduces_the_fe_solve_of_each_sample(catenary, n2, line_model, truth, neighbours):
+    # The band's CW profile (fast-model dropper forces through the profile map) against a full
+    # FE solve of the same span, along the whole span and at the droppers: pinned (the paper's
+    # model) or as the central span of three, wires continuous over its masts, neighbours at
+    # the nominal table, design ΔH at the outer masts. The fast model is exact to ~1e-9 m, so
+    # 1e-7 m is a bound with margin, far below any plotted detail.
+    fast = line_model if neighbours else FastSpanModel(n2, catenary, messenger_tension_bounds_n=(15_000.0, 26_000.0))
     x = band_abscissae(n2, 117)
-    op = SpanProfileOperator.build(n2, catenary, x)
+    op = fast.profile_map(x)
     rng = np.random.default_rng(3)
     means, sigmas = truth
     lengths = means[:9] + sigmas[:9] * rng.standard_normal((3, 9))
     t_mw = means[9] + sigmas[9] * rng.standard_normal(3)
     dh = means[10] + sigmas[10] * rng.standard_normal((3, 2))
-    profiles, slack = sample_profiles(model, op, lengths, t_mw, dh[:, 0], dh[:, 1])
+    profiles, slack = sample_profiles(fast, op, lengths, t_mw, dh[:, 0], dh[:, 1])
     assert not slack.any()
+    nominal = means[:9]
     for k in range(3):
-        section = single_span(n2, lengths[k], messenger_tension_n=t_mw[k], system_height_left_m=dh[k, 0],
-                              system_height_right_m=dh[k, 1], cw_height_left_m=5.12, cw_height_right_m=5.03)
+        section = uniform_section(n2, 1 + 2 * neighbours, nominal, messenger_tension_n=t_mw[k])
+        all_lengths = section.dropper_lengths_m.copy()
+        all_lengths[9 * neighbours:9 * (neighbours + 1)] = lengths[k]
+        heights = np.full(2 + 2 * neighbours, n2.system_height_m)
+        heights[neighbours:neighbours + 2] = dh[k]
+        # Steady arms on one straight line (the central span's 5.12 → 5.03 m continued): a rigid
+        # tilt of the whole run leaves W unchanged, so the model's level run applies exactly.
+        cw = 5.12 - 0.09 * (np.arange(2 + 2 * neighbours) - neighbours)
+        section = dataclasses.replace(section.with_dropper_lengths(all_lengths), system_heights_m=heights,
+                                      cw_support_heights_m=cw)
         solution = StaticModel(section, catenary).solve()
-        np.testing.assert_allclose(profiles[k], solution.cw_deflection_at(x), atol=1e-7)
+        start = neighbours * n2.length_m
+        np.testing.assert_allclose(profiles[k], solution.cw_deflection_at(start + x), atol=1e-7)
         at = np.searchsorted(x, n2.dropper_positions_m)
-        np.testing.assert_allclose(profiles[k, at], solution.dropper_deflection_m(), atol=1e-7)
+        np.testing.assert_allclose(profiles[k, at], solution.dropper_deflection_m()[9 * neighbours:9 * neighbours + 9],
+                                   atol=1e-7)
 
 
 def test_band_holds_its_level_of_fresh_spans_at_every_station(catenary, n2, model, truth):
@@ -86,7 +109,7 @@ def test_band_holds_its_level_of_fresh_spans_at_every_station(catenary, n2, mode
     x = band_abscissae(n2, 59)
     band = deflection_band(model, means, sigmas, x_m=x, n_samples=4000, level=0.98, seed=3,
                            system_height_mode=MODE)
-    op = SpanProfileOperator.build(n2, catenary, x)
+    op = model.profile_map(x)
     rng = np.random.default_rng(17)
     shape, scale = (means / sigmas) ** 2, sigmas**2 / means
     draws = rng.gamma(shape, scale, size=(4500, 11))

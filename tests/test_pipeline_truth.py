@@ -60,18 +60,17 @@ def test_correction_recovers_the_static_w(span_type):
 @pytest.mark.parametrize("span_type", ["N2", "N3"])
 def test_identification_recovers_the_realized_truth(span_type):
     # The identified laws against the realized truth of the 20 spans (21 masts): z = (estimate −
-    # realized) / se. With honest standard errors z ≈ N(0, 1): |z| < 3 for the three T_MW and
-    # ΔH σ/μ figures and < 3.5 for the nine dropper σ fails by chance with probability ≈ 1.5 %
-    # per span type (measured: max |z| 1.41). The ΔH mean also carries the model-form lift of a
-    # single pinned span against wires continuous over the masts, 1.0–1.2 mm: it gets 1.5 mm
-    # on top of 3 standard errors.
+    # realized) / se. With honest standard errors z ≈ N(0, 1): |z| < 3 for the four T_MW and ΔH
+    # figures and < 3.5 for the nine dropper σ fails by chance with probability ≈ 1.7 % per span
+    # type. The identification model is the span as it hangs in the line (neighbours: 1), so the
+    # ΔH mean carries no model-form bias and gets no allowance (a pinned span would put the
+    # 1.1 mm continuity lift of W into it: about +2.7 mm of ΔH, 1.4 standard errors here).
     table = _table("identification_check.csv")
     rows = table[table["span_type"] == span_type].set_index(["parameter", "statistic"])
     assert (rows["status"] == "ok").all()
     assert (rows["n_spans"] == 20).all()
-    for key in (("messenger_tension_n", "mu"), ("messenger_tension_n", "sigma"), ("system_height_m", "sigma")):
+    for key in (("messenger_tension_n", "mu"), ("messenger_tension_n", "sigma"), ("system_height_m", "mu"),
+                ("system_height_m", "sigma")):
         assert abs(rows.loc[key, "z"]) < 3.0, (key, rows.loc[key].to_dict())
     droppers = rows[rows.index.get_level_values("parameter").str.startswith("dropper_")]
     assert len(droppers) == 9 and np.all(np.abs(droppers["z"]) < 3.5), droppers["z"].to_dict()
-    dh = rows.loc[("system_height_m", "mu")]
-    assert abs(dh["estimate"] - dh["realized"]) < 3.0 * dh["standard_error"] + 1.5e-3, dh.to_dict()

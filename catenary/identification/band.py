@@ -3,20 +3,15 @@
 CW profile between the droppers
 -------------------------------
 With the steady arms at zero height (so the chord is zero and the CW height *is* its
-deflection from the chord) the contact wire of one span is a tensioned beam loaded by its own
-weight, the clamps, half of each dropper's weight and the dropper tensions ``F``. Its height at
-any abscissa x is therefore affine in the dropper forces and lengths,
-
-    w(x) = a(x) + B(x) F + G(x) L,
-
-and does not depend on T_MW or ΔH except through ``F``. :class:`SpanProfileOperator` computes
-``a``, ``B`` (unit dropper tensions) and ``G`` (one metre of dropper weight) once with the static
-FE model of :mod:`catenary.static` on :func:`catenary.section.single_span` (the paper's
-identification model, same mesh, same T_CW) and reads the CW between the nodes with the FE
-shape functions, exactly as :meth:`catenary.static.StaticSolution.cw_deflection_at` does. The
-dropper forces come from the fast model (:class:`catenary.fast.FastSpanModel`), so whole sample
-arrays are evaluated at once; the result equals the FE solve of each sample to the fast model's
-accuracy (checked in the tests).
+deflection from the chord) the contact wire is a tensioned beam loaded by its own weight, the
+clamps, half of each dropper's weight and the dropper tensions ``F``; with neighbours (wires
+continuous over the masts) it also feels the span's MW support heights through the
+neighbours. Its height at any abscissa x is affine in the dropper forces, lengths and ΔH, with
+coefficients that depend on the tensions: :meth:`catenary.fast.FastSpanModel.profile_map`
+condenses the same FE model as the fast model (pinned span or span in the line) onto the CW at
+the band's abscissae and interpolates it in the tensions as the fast model does for W. The
+dropper forces come from the fast model, so whole sample arrays are evaluated at once; the
+result equals the FE solve of each sample to the fast model's accuracy (checked in the tests).
 
 Band
 ----
@@ -33,72 +28,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse.linalg import splu
 
-from ..config import Catenary, SpanType
-from ..fast import FastSpanModel
-from ..section import single_span
-from ..static import CW, StaticModel, wire_height_at
+from ..config import SpanType
+from ..fast import FastSpanModel, ProfileMap
 from .design import design_dimension, draw_unit_design, map_inputs
 
-__all__ = ["DeflectionBand", "SpanProfileOperator", "band_abscissae", "deflection_band", "sample_profiles"]
-
-
-@dataclass(frozen=True)
-class SpanProfileOperator:
-    """CW deflection from the chord at fixed abscissae, affine in dropper forces and lengths.
-
-    Attributes
-    ----------
-    x_m : numpy.ndarray, shape (p,)
-        Abscissae from the left mast [m].
-    offset_m : numpy.ndarray, shape (p,)
-        ``a``: the CW under its weight and the clamps, droppers weightless and without tension [m].
-    force_m_n : numpy.ndarray, shape (p, n)
-        ``B``: CW rise per newton of tension in each dropper [m/N].
-    length_m_m : numpy.ndarray, shape (p, n)
-        ``G``: CW change per metre of each dropper's length (half its weight hangs on the CW) [m/m].
-    """
-
-    x_m: np.ndarray
-    offset_m: np.ndarray
-    force_m_n: np.ndarray
-    length_m_m: np.ndarray
-
-    @classmethod
-    def build(cls, span_type: SpanType, catenary: Catenary, x_m: np.ndarray,
-              contact_tension_n: float | None = None) -> "SpanProfileOperator":
-        """Condense the FE model of one span onto the CW at ``x_m`` (T_CW: design by default)."""
-        x = np.asarray(x_m, dtype=float)
-        if x.ndim != 1 or np.any(x < 0) or np.any(x > span_type.length_m):
-            raise ValueError(f"x_m: expected abscissae within the span [0, {span_type.length_m}] m")
-        n = span_type.n_droppers
-        section = single_span(span_type, np.ones(n), contact_tension_n=contact_tension_n,
-                              cw_height_left_m=0.0, cw_height_right_m=0.0)
-        model = StaticModel(section, catenary)
-        k = model.k_wires.tocsr()
-        free = model.free
-        lu = splu(k[free][:, free].tocsc())
-        g = catenary.gravity_m_s2
-        half_dropper_n = 0.5 * catenary.droppers.mass_per_length_kg_m * g   # per metre of dropper
-        c = model.dropper_cw_dof
-        loads = np.zeros((model.n_dofs, 1 + 2 * n))
-        loads[:, 0] = model.f_gravity
-        loads[c, 0] += half_dropper_n            # the unit-length model's dropper weight, removed
-        cols = np.arange(n)
-        loads[c, 1 + cols] = 1.0                 # unit dropper tension pulls the CW up
-        loads[c, 1 + n + cols] = -half_dropper_n
-        # CW and MW are uncoupled without droppers; all supports at zero height.
-        u = np.zeros_like(loads)
-        u[free] = lu.solve(loads[free])
-        profile = np.column_stack([wire_height_at(model.mesh, u[:, j], x, CW) for j in range(1 + 2 * n)])
-        return cls(x_m=x, offset_m=profile[:, 0], force_m_n=profile[:, 1:1 + n], length_m_m=profile[:, 1 + n:])
-
-    def deflection(self, dropper_force_n: np.ndarray, dropper_lengths_m: np.ndarray) -> np.ndarray:
-        """CW deflection from the chord [m], shape (N, p), for N samples of forces and lengths (N, n)."""
-        f = np.atleast_2d(np.asarray(dropper_force_n, dtype=float))
-        lengths = np.atleast_2d(np.asarray(dropper_lengths_m, dtype=float))
-        return self.offset_m + f @ self.force_m_n.T + lengths @ self.length_m_m.T
+__all__ = ["DeflectionBand", "band_abscissae", "deflection_band", "sample_profiles"]
 
 
 @dataclass(frozen=True)
@@ -141,10 +76,10 @@ def band_abscissae(span_type: SpanType, n_points: int) -> np.ndarray:
     return np.unique(np.concatenate([x, span_type.dropper_positions_m]))
 
 
-def sample_profiles(model: FastSpanModel, operator: SpanProfileOperator, dropper_lengths_m: np.ndarray,
+def sample_profiles(model: FastSpanModel, operator: ProfileMap, dropper_lengths_m: np.ndarray,
                     messenger_tension_n: np.ndarray, system_height_left_m: np.ndarray,
                     system_height_right_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """CW deflection profiles of N spans and their slack flags.
+    """CW deflection profiles of N spans (design T_CW) and their slack flags.
 
     Returns
     -------
@@ -154,13 +89,15 @@ def sample_profiles(model: FastSpanModel, operator: SpanProfileOperator, dropper
         True where a dropper would be in compression.
     """
     res = model.evaluate(dropper_lengths_m, messenger_tension_n, system_height_left_m, system_height_right_m)
-    return operator.deflection(res.dropper_force_n, dropper_lengths_m), res.slack
+    profiles = operator.deflection(res, dropper_lengths_m, messenger_tension_n, system_height_left_m,
+                                   system_height_right_m, model.span_type.contact_tension_n)
+    return profiles, res.slack
 
 
 def deflection_band(model: FastSpanModel, means: np.ndarray, sigmas: np.ndarray, *, x_m: np.ndarray,
                     n_samples: int, level: float = 0.98, design_method: str = "sobol", seed: int = 0,
                     system_height_mode: str = "shared",
-                    operator: SpanProfileOperator | None = None) -> DeflectionBand:
+                    operator: ProfileMap | None = None) -> DeflectionBand:
     """Pointwise ``level`` band of the CW deflection along the span under the laws (means, sigmas).
 
     Parameters
@@ -179,8 +116,8 @@ def deflection_band(model: FastSpanModel, means: np.ndarray, sigmas: np.ndarray,
     seed : int
         Seed of the design.
     system_height_mode : {"shared", "independent"}
-    operator : SpanProfileOperator, optional
-        Prebuilt operator at ``x_m``.
+    operator : ProfileMap, optional
+        Prebuilt ``model.profile_map(x_m)``.
 
     Raises
     ------
@@ -195,7 +132,7 @@ def deflection_band(model: FastSpanModel, means: np.ndarray, sigmas: np.ndarray,
                               seed=seed)
     x = map_inputs(design.z, means, sigmas, system_height_mode)
     if operator is None:
-        operator = SpanProfileOperator.build(model.span_type, model.catenary, x_m)
+        operator = model.profile_map(x_m)
     profiles, slack = sample_profiles(model, operator, x.dropper_lengths_m, x.messenger_tension_n,
                                       x.system_height_left_m, x.system_height_right_m)
     taut = profiles[~slack]

@@ -102,16 +102,19 @@ def messenger_tension_bounds_n(start: tuple[RandomInput, ...], box: ParameterBox
 def make_likelihood(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, *,
                     start: tuple[RandomInput, ...] | None = None, n_samples: int = 10_000,
                     design_method: str = DEFAULT_DESIGN, seed: int = 0, system_height_mode: str = "shared",
-                    box: ParameterBox = ParameterBox(), degree: int = 14, eps: float = 1e-9,
+                    box: ParameterBox = ParameterBox(), degree: int = 14, eps: float = 1e-9, neighbours: int = 1,
                     **likelihood_options) -> Likelihood:
     """Build the fast model (T_MW range from the box), draw the design once, return J.
 
     ``likelihood_options`` go to :class:`~.likelihood.Likelihood` (``estimator``, ...). The
     Chebyshev degree 14 keeps the fast model within ~1e-7 m over the wide T_MW range.
+    ``neighbours``: the span model (:class:`~catenary.fast.FastSpanModel`; 1, the span in the
+    line with wires continuous over its masts; 0, the paper's pinned span).
     """
     start = default_inputs(span_type, catenary) if start is None else start
     bounds = messenger_tension_bounds_n(start, box, eps=eps)
-    model = FastSpanModel(span_type, catenary, messenger_tension_bounds_n=bounds, degree=degree)
+    model = FastSpanModel(span_type, catenary, messenger_tension_bounds_n=bounds, degree=degree,
+                          neighbours=neighbours)
     design = draw_unit_design(n_samples, design_dimension(span_type.n_droppers, system_height_mode),
                               method=design_method, seed=seed, eps=eps)
     return Likelihood(model, design, data_w_m, system_height_mode=system_height_mode, **likelihood_options)

@@ -332,7 +332,7 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     n = span_type.n_droppers
     lik = make_likelihood(span_type, catenary, data, start=start, n_samples=s.n_samples, design_method=s.design,
                           seed=s.seed, system_height_mode=s.system_height_mode, estimator=s.estimator,
-                          bandwidth=s.bandwidth)
+                          bandwidth=s.bandwidth, neighbours=s.neighbours)
     mu0 = np.array([r.mean for r in start])
     sd0 = np.array([r.sigma for r in start])
     j_start = lik(mu0, sd0)
@@ -481,7 +481,11 @@ def markdown_report(run: IdentificationRun, *, source: str = "corrected.parquet"
             f"{_fmt(s0.sigma * sd_scale, sd_unit) if e.parameter in random else '0'} | {', '.join(what)} |")
     mode = ("one ΔH per span, used at both masts (ΔH_left = ΔH_right)" if s.system_height_mode == "shared" else
             "ΔH_left and ΔH_right independent draws of the same ΔH law (one law per mast)")
-    lines += ["", f"ΔH law: {mode}. se: standard error. The machine-readable table is `s_opt.csv` (SI).", ""]
+    span = ("the span as it hangs in the line: the central one of "
+            f"{2 * s.neighbours + 1} identical spans, both wires continuous over its masts, neighbours at the "
+            "nominal table" if s.neighbours else "one span pinned at its masts (the paper's model)")
+    lines += ["", f"ΔH law: {mode}. Span model: {span}. se: standard error. The machine-readable table is "
+              "`s_opt.csv` (SI).", ""]
     lines += ["## Run", "",
               "| item | value |", "|---|---|",
               f"| spans used | {run.data_w_m.shape[0]} |",

@@ -76,6 +76,10 @@ class IdentificationSettings:
         Start σ of ΔH [m].
     system_height_mode : {"shared", "independent"}
         How ΔH_left and ΔH_right follow the ΔH law (:mod:`.design`).
+    neighbours : int
+        Model of one span: 0, the paper's single span pinned at its masts; k > 0, the span as the
+        central one of 2k + 1 identical spans, both wires continuous over its masts, neighbours
+        at the nominal table (:class:`catenary.fast.FastSpanModel`).
     on_non_convergence : {"fail", "mark"}
         When the optimiser stops without converging: ``"fail"`` raises
         :class:`~catenary.errors.ConvergenceError` (the rule fails, no output); ``"mark"`` writes
@@ -120,6 +124,7 @@ class IdentificationSettings:
     system_height_mean_m: str | float = "design"
     system_height_sigma_m: float = 0.005
     system_height_mode: str = "independent"
+    neighbours: int = 1
     on_non_convergence: str = "fail"
     n_samples: int = 10_000
     design: str = "sobol"
@@ -143,7 +148,7 @@ class IdentificationSettings:
         check(self.as_mapping(), "config", "identification")
         # Integers given as 1e4 in YAML arrive as floats: store them as int.
         for key in ("n_samples", "max_evaluations", "band_n_samples", "band_n_points", "normality_n_samples",
-                    "seed"):
+                    "seed", "neighbours"):
             object.__setattr__(self, key, int(getattr(self, key)))
         object.__setattr__(self, "estimators_n_samples", tuple(int(n) for n in self.estimators_n_samples))
 
@@ -171,7 +176,8 @@ class IdentificationSettings:
             messenger_tension_mean_n=start[MESSENGER_TENSION]["mean"],
             messenger_tension_sigma_n=start[MESSENGER_TENSION]["sigma"],
             system_height_mean_m=start[SYSTEM_HEIGHT]["mean"], system_height_sigma_m=start[SYSTEM_HEIGHT]["sigma"],
-            system_height_mode=raw["system_height_mode"], on_non_convergence=raw["on_non_convergence"],
+            system_height_mode=raw["system_height_mode"], neighbours=raw["neighbours"],
+            on_non_convergence=raw["on_non_convergence"],
             n_samples=raw["n_samples"], design=raw["design"], estimator=raw["estimator"],
             bandwidth=raw["bandwidth"], seed=raw["seed"], **optimiser,
             estimators_n_samples=tuple(raw["estimators_n_samples"]),
@@ -189,7 +195,8 @@ class IdentificationSettings:
                       MESSENGER_TENSION: {"mean": self.messenger_tension_mean_n,
                                           "sigma": self.messenger_tension_sigma_n},
                       SYSTEM_HEIGHT: {"mean": self.system_height_mean_m, "sigma": self.system_height_sigma_m}},
-            "system_height_mode": self.system_height_mode, "on_non_convergence": self.on_non_convergence,
+            "system_height_mode": self.system_height_mode, "neighbours": self.neighbours,
+            "on_non_convergence": self.on_non_convergence,
             "n_samples": self.n_samples, "design": self.design, "estimator": self.estimator,
             "bandwidth": self.bandwidth, "seed": self.seed,
             "optimiser": {"method": self.method, "max_evaluations": self.max_evaluations,
