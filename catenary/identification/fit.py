@@ -47,8 +47,8 @@ from .design import (DEFAULT_DESIGN, MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInp
 from .likelihood import Likelihood
 from .result import IdentificationResult, ParameterEstimate
 
-__all__ = ["METHODS", "ParameterBox", "identify", "make_likelihood", "messenger_tension_bounds_n",
-           "observed_information"]
+__all__ = ["METHODS", "ParameterBox", "ScaledProblem", "identify", "make_likelihood",
+           "messenger_tension_bounds_n", "observed_information"]
 
 METHODS = ("nelder-mead", "bobyqa")
 DEFAULT_FREE_MEANS = (MESSENGER_TENSION, SYSTEM_HEIGHT)
@@ -121,8 +121,21 @@ def make_likelihood(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarra
 
 
 @dataclass
-class _Problem:
-    """Map θ ↔ (means, sigmas) and record the J trace."""
+class ScaledProblem:
+    """J in the optimiser's coordinates θ (module docstring): θ ↔ (means, sigmas), the J trace.
+
+    Attributes
+    ----------
+    likelihood : Likelihood
+    start : tuple of RandomInput
+        s0, in design order.
+    free_mean_idx, free_sigma_idx : numpy.ndarray of int
+        Inputs whose mean / σ are coordinates of θ (means first, then σ).
+    trace : list
+        ``(θ, means, sigmas, J)`` of every evaluation while ``recording``.
+    n_evaluations : int
+        Evaluations of J so far (recorded or not).
+    """
 
     likelihood: Likelihood
     start: tuple[RandomInput, ...]
@@ -130,6 +143,7 @@ class _Problem:
     free_sigma_idx: np.ndarray
     trace: list = field(default_factory=list)
     recording: bool = True
+    n_evaluations: int = 0
 
     def __post_init__(self):
         self.mu0 = np.array([s.mean for s in self.start])
@@ -146,6 +160,7 @@ class _Problem:
         theta = np.array(theta, dtype=float)
         means, sigmas = self.laws(theta)
         value = self.likelihood(means, sigmas)
+        self.n_evaluations += 1
         if self.recording:
             self.trace.append((theta, means, sigmas, value))
         return value
@@ -153,6 +168,27 @@ class _Problem:
     def objective(self, theta) -> float:
         value = self.j(theta)
         return -value if np.isfinite(value) else _PENALTY
+
+    @classmethod
+    def for_inputs(cls, likelihood: Likelihood, start: tuple[RandomInput, ...], free_means: tuple[str, ...],
+                   free_sigmas: tuple[str, ...]) -> "ScaledProblem":
+        """The problem whose coordinates are the named free means and σ."""
+        names = [s.name for s in start]
+        return cls(likelihood, tuple(start), np.array([i for i, n in enumerate(names) if n in free_means], dtype=int),
+                   np.array([i for i, n in enumerate(names) if n in free_sigmas], dtype=int))
+
+    def bounds(self, box: "ParameterBox") -> tuple[np.ndarray, np.ndarray]:
+        """The box in θ: lower and upper bounds of every coordinate."""
+        lo, hi = [], []
+        for i in self.free_mean_idx:
+            a, b = box.mean_bounds(self.start[i])
+            lo.append((a - self.mu0[i]) / self.sd0[i])
+            hi.append((b - self.mu0[i]) / self.sd0[i])
+        for i in self.free_sigma_idx:
+            a, b = box.sigma_bounds(self.start[i])
+            lo.append(np.log(a / self.sd0[i]))
+            hi.append(np.log(b / self.sd0[i]))
+        return np.array(lo), np.array(hi)
 
 
 def observed_information(j, theta: np.ndarray, step: float) -> np.ndarray:
@@ -171,19 +207,6 @@ def observed_information(j, theta: np.ndarray, step: float) -> np.ndarray:
             h[i, k] = h[k, i] = (j(theta + e[i] + e[k]) - j(theta + e[i] - e[k])
                                  - j(theta - e[i] + e[k]) + j(theta - e[i] - e[k])) / (4.0 * step**2)
     return -h
-
-
-def _bounds(problem: _Problem, box: ParameterBox) -> tuple[np.ndarray, np.ndarray]:
-    lo, hi = [], []
-    for i in problem.free_mean_idx:
-        a, b = box.mean_bounds(problem.start[i])
-        lo.append((a - problem.mu0[i]) / problem.sd0[i])
-        hi.append((b - problem.mu0[i]) / problem.sd0[i])
-    for i in problem.free_sigma_idx:
-        a, b = box.sigma_bounds(problem.start[i])
-        lo.append(np.log(a / problem.sd0[i]))
-        hi.append(np.log(b / problem.sd0[i]))
-    return np.array(lo), np.array(hi)
 
 
 def _run_nelder_mead(problem, theta0, lo, hi, initial_step, max_evaluations, xtol, ftol):
@@ -282,10 +305,8 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
     if unknown:
         raise ValueError(f"unknown inputs {sorted(unknown)}; inputs are {names}")
     free_sigmas = tuple(names) if free_sigmas is None else free_sigmas
-    problem = _Problem(likelihood, tuple(start),
-                       np.array([i for i, n in enumerate(names) if n in free_means], dtype=int),
-                       np.array([i for i, n in enumerate(names) if n in free_sigmas], dtype=int))
-    lo, hi = _bounds(problem, box)
+    problem = ScaledProblem.for_inputs(likelihood, start, free_means, free_sigmas)
+    lo, hi = problem.bounds(box)
     theta0 = np.clip(np.zeros(lo.size), lo, hi)
     t_start = time.perf_counter()
     run = _run_nelder_mead if method == "nelder-mead" else _run_bobyqa

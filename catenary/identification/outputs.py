@@ -54,7 +54,7 @@ def write_identification(run: IdentificationRun, paths: IdentificationPaths, *, 
     for p in (paths.s_opt, paths.trace, paths.estimators, paths.normality, paths.band, paths.report):
         Path(p).parent.mkdir(parents=True, exist_ok=True)
     st = run.span_type.name
-    s_opt_table(run.result).to_csv(paths.s_opt, index=False, float_format="%.17g")
+    s_opt_table(run.result, run.profiles).to_csv(paths.s_opt, index=False, float_format="%.17g")
     names = [e.parameter for e in run.result.estimates]
     status = run.result.status
     write_table(trace_table(run.result), paths.trace, trace_schema(names), config_hash=config_hash,

@@ -32,6 +32,7 @@ from .band import DeflectionBand, band_abscissae, deflection_band
 from .design import MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, design_dimension, draw_unit_design
 from .fit import identify, make_likelihood
 from .likelihood import Likelihood, ModelSample, fit_gaussian, kernel_bandwidth
+from .profile import ProfileInterval, profile_intervals
 from .result import IdentificationResult
 from .synthetic import simulate_deflections
 from .settings import IdentificationSettings
@@ -40,7 +41,8 @@ __all__ = ["CorrectedData", "IdentificationRun", "MarginalDensities", "S_OPT_COL
            "markdown_report", "normality_report", "read_corrected", "run_identification", "s_opt_table",
            "trace_schema", "trace_table"]
 
-S_OPT_COLUMNS = ("parameter", "mu", "sigma", "mu_se", "sigma_se", "mu_fixed", "converged", "status")
+S_OPT_COLUMNS = ("parameter", "mu", "sigma", "mu_se", "sigma_se", "mu_fixed", "mu_profile_low", "mu_profile_high",
+                 "sigma_profile_low", "sigma_profile_high", "no_spread_detected", "converged", "status")
 _REQUIRED = ("span_id", "converged")
 _LOG = logging.getLogger(__name__)
 
@@ -275,6 +277,10 @@ class IdentificationRun:
         Fraction of the measured W inside the band at each dropper.
     identification_time_s : float
         Wall time of the optimisation and the standard errors [s].
+    profiles : list of ProfileInterval
+        Profile-likelihood intervals of the configured parameters.
+    profile_time_s : float
+        Wall time of the profile intervals [s].
     total_time_s : float
         Wall time of :func:`run_identification` (fast model, identification, normality,
         marginals, band) [s].
@@ -292,6 +298,8 @@ class IdentificationRun:
     band: DeflectionBand
     data_in_band: np.ndarray
     identification_time_s: float
+    profiles: list[ProfileInterval]
+    profile_time_s: float
     total_time_s: float
 
 
@@ -356,6 +364,16 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     if not result.standard_errors_available:
         log.warning("%s: the observed information is not positive definite at s_opt: no standard errors "
                     "(status %s)", span_type.name, result.status)
+    t_profile = time.perf_counter()
+    profiled = s.profile_names(n)
+    profiles = (profile_intervals(lik, start, result, parameters=profiled, level=s.profile_level,
+                                  max_evaluations=s.profile_max_evaluations) if profiled else [])
+    profile_time = time.perf_counter() - t_profile
+    for p in profiles:
+        log.info("%s: %s %s = %.6g, %.0f %% profile interval [%.6g, %.6g]%s (%d evaluations)", span_type.name,
+                 p.parameter, p.statistic, p.estimate, 100 * s.profile_level, p.low, p.high,
+                 ": consistent with no spread" if p.no_spread_detected else "", p.n_evaluations)
+    log.info("%s: profile intervals of %d parameters in %.1f s", span_type.name, len(profiles), profile_time)
     normality = normality_report(lik.model, start, result, data, n_samples=s.normality_n_samples, seed=s.seed + 3,
                                  system_height_mode=s.system_height_mode, alpha=s.normality_alpha)
     for key, value in normality.items():
@@ -384,15 +402,26 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     return IdentificationRun(span_type=span_type, settings=s, start=start, result=result, j_start=float(j_start),
                              data_w_m=data, left_out=list(left_out or []), normality=normality, marginals=marginals,
                              band=band, data_in_band=inside.mean(axis=0), identification_time_s=result.time_s,
-                             total_time_s=time.perf_counter() - t0)
+                             profiles=profiles, profile_time_s=profile_time, total_time_s=time.perf_counter() - t0)
 
 
-def s_opt_table(result: IdentificationResult) -> pd.DataFrame:
+def s_opt_table(result: IdentificationResult, profiles: list[ProfileInterval] = ()) -> pd.DataFrame:
     """s_opt with standard errors: columns ``parameter``, ``mu``, ``sigma``, ``mu_se``, ``sigma_se``,
     ``mu_fixed`` (SI, in the unit of each parameter's name; se 0 where not identified, NaN where
-    the information is singular), ``converged`` and ``status``
-    (:attr:`.result.IdentificationResult.status`, the same on every row)."""
-    return pd.DataFrame(result.table_rows(), columns=list(S_OPT_COLUMNS))
+    the information is singular), the profile-likelihood interval ends ``mu_profile_low`` …
+    ``sigma_profile_high`` (NaN where not profiled; ``sigma_profile_low`` = 0 when the interval
+    reaches no spread), ``no_spread_detected`` (the σ interval reaches 0), ``converged`` and
+    ``status`` (:attr:`.result.IdentificationResult.status`, the same on every row)."""
+    rows = result.table_rows()
+    by_key = {(p.parameter, p.statistic): p for p in profiles}
+    for row in rows:
+        for statistic in ("mu", "sigma"):
+            p = by_key.get((row["parameter"], statistic))
+            row[f"{statistic}_profile_low"] = p.low if p else np.nan
+            row[f"{statistic}_profile_high"] = p.high if p else np.nan
+        sigma = by_key.get((row["parameter"], "sigma"))
+        row["no_spread_detected"] = bool(sigma.no_spread_detected) if sigma else False
+    return pd.DataFrame(rows, columns=list(S_OPT_COLUMNS))
 
 
 def trace_schema(parameters: tuple[str, ...] | list[str]) -> pa.Schema:
@@ -486,6 +515,27 @@ def markdown_report(run: IdentificationRun, *, source: str = "corrected.parquet"
             "nominal table" if s.neighbours else "one span pinned at its masts (the paper's model)")
     lines += ["", f"ΔH law: {mode}. Span model: {span}. se: standard error. The machine-readable table is "
               "`s_opt.csv` (SI).", ""]
+    if run.profiles:
+        wald = {(w["parameter"], k): (w[f"{k}_low"], w[f"{k}_high"]) for w in r.intervals(s.profile_level)
+                for k in ("mu", "sigma")}
+        lines += [f"## {100 * s.profile_level:.0f} % intervals", "",
+                  "Profile likelihood (the other parameters re-optimised at each value, same design) beside the "
+                  "Wald interval of the standard errors (log scale for σ, which can never reach 0). A σ whose "
+                  "profile interval reaches 0 is consistent with no spread of that input.", "",
+                  "| parameter | statistic | estimate | profile interval | Wald interval | unit | verdict |",
+                  "|---|---|---:|---|---|---|---|"]
+        for p in run.profiles:
+            label, mu_unit, mu_scale, sd_unit, sd_scale = _label(p.parameter)
+            unit, scale = (mu_unit, mu_scale) if p.statistic == "mu" else (sd_unit, sd_scale)
+            lo, hi = wald[(p.parameter, p.statistic)]
+            verdict = ("consistent with no spread" if p.no_spread_detected else
+                       "spread detected" if p.statistic == "sigma" else "")
+            if p.high_at_boundary or (p.low_at_boundary and p.statistic == "mu"):
+                verdict += " (interval reaches the edge of the admissible box)"
+            lines.append(f"| {label} | {'μ' if p.statistic == 'mu' else 'σ'} | {_fmt(p.estimate * scale, unit)} | "
+                         f"[{_fmt(p.low * scale, unit)}, {_fmt(p.high * scale, unit)}] | "
+                         f"[{_fmt(lo * scale, unit)}, {_fmt(hi * scale, unit)}] | {unit} | {verdict} |")
+        lines += ["", f"{sum(p.n_evaluations for p in run.profiles)} J evaluations, {run.profile_time_s:.1f} s.", ""]
     lines += ["## Run", "",
               "| item | value |", "|---|---|",
               f"| spans used | {run.data_w_m.shape[0]} |",

@@ -100,6 +100,13 @@ class IdentificationSettings:
         Optimiser tolerances (``None``: the optimiser's default, see :func:`.fit.identify`).
     hessian_step : float
         Finite-difference step of the observed information, in the scaled coordinates θ.
+    profile_parameters : tuple of str
+        Inputs whose free μ and σ get profile-likelihood intervals (``dropper_lengths_m`` for
+        every dropper); empty: none.
+    profile_level : float
+        Confidence level of the profile intervals.
+    profile_max_evaluations : int
+        J evaluations of each inner re-optimisation of the profile.
     estimators_n_samples : tuple of int
         Sample sizes of the estimators figure (paper Fig. 7).
     band_level : float
@@ -137,6 +144,9 @@ class IdentificationSettings:
     xtol: float | None = None
     ftol: float | None = None
     hessian_step: float = 0.01
+    profile_parameters: tuple[str, ...] = (MESSENGER_TENSION, SYSTEM_HEIGHT)
+    profile_level: float = 0.95
+    profile_max_evaluations: int = 300
     estimators_n_samples: tuple[int, ...] = (1_000, 10_000, 100_000)
     band_level: float = 0.98
     band_n_samples: int = 4000
@@ -148,7 +158,7 @@ class IdentificationSettings:
         check(self.as_mapping(), "config", "identification")
         # Integers given as 1e4 in YAML arrive as floats: store them as int.
         for key in ("n_samples", "max_evaluations", "band_n_samples", "band_n_points", "normality_n_samples",
-                    "seed", "neighbours"):
+                    "seed", "neighbours", "profile_max_evaluations"):
             object.__setattr__(self, key, int(getattr(self, key)))
         object.__setattr__(self, "estimators_n_samples", tuple(int(n) for n in self.estimators_n_samples))
 
@@ -180,6 +190,9 @@ class IdentificationSettings:
             on_non_convergence=raw["on_non_convergence"],
             n_samples=raw["n_samples"], design=raw["design"], estimator=raw["estimator"],
             bandwidth=raw["bandwidth"], seed=raw["seed"], **optimiser,
+            profile_parameters=tuple(raw["profile_intervals"]["parameters"]),
+            profile_level=raw["profile_intervals"]["level"],
+            profile_max_evaluations=raw["profile_intervals"]["max_evaluations"],
             estimators_n_samples=tuple(raw["estimators_n_samples"]),
             **{f"band_{k}": v for k, v in raw["band"].items()},
             **{f"normality_{k}": v for k, v in raw["normality"].items()})
@@ -202,6 +215,8 @@ class IdentificationSettings:
             "optimiser": {"method": self.method, "max_evaluations": self.max_evaluations,
                           "initial_step": self.initial_step, "xtol": self.xtol, "ftol": self.ftol,
                           "hessian_step": self.hessian_step},
+            "profile_intervals": {"parameters": list(self.profile_parameters), "level": self.profile_level,
+                                  "max_evaluations": self.profile_max_evaluations},
             "estimators_n_samples": list(self.estimators_n_samples),
             "band": {"level": self.band_level, "n_samples": self.band_n_samples, "n_points": self.band_n_points},
             "normality": {"alpha": self.normality_alpha, "n_samples": self.normality_n_samples},
@@ -228,6 +243,10 @@ class IdentificationSettings:
     def random_names(self, n_droppers: int) -> tuple[str, ...]:
         """Names of the random inputs (design order) for a span type with ``n_droppers``."""
         return self._expand(self.random_inputs, n_droppers, "random_inputs")
+
+    def profile_names(self, n_droppers: int) -> tuple[str, ...]:
+        """Names of the inputs whose free μ and σ are profiled (design order)."""
+        return self._expand(self.profile_parameters, n_droppers, "profile_intervals.parameters")
 
     def free_mean_names(self, n_droppers: int) -> tuple[str, ...]:
         """Names of the inputs whose mean is identified (design order)."""

@@ -1,0 +1,54 @@
+"""Profile-likelihood intervals: a σ whose interval reaches 0 is "consistent with no spread"."""
+
+import numpy as np
+import pytest
+
+from catenary.identification.design import default_inputs
+from catenary.identification.fit import identify, make_likelihood
+from catenary.identification.profile import profile_intervals
+from catenary.identification.synthetic import simulate_deflections
+
+from .conftest import TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N, TABLE2_SYSTEM_HEIGHT_M
+
+MODE = "independent"
+
+
+@pytest.fixture(scope="module")
+def start(catenary, n2):
+    return default_inputs(n2, catenary, messenger_tension_mean_n=20_000.0, system_height_mean_m=1.40)
+
+
+def _laws(start, t_mw_sigma_n):
+    means = np.array([s.mean for s in start])
+    means[9], means[10] = TABLE2_MESSENGER_TENSION_N[0], TABLE2_SYSTEM_HEIGHT_M[0]
+    return means, np.r_[TABLE2_DROPPER_SIGMA_M, t_mw_sigma_n, TABLE2_SYSTEM_HEIGHT_M[1]]
+
+
+@pytest.mark.parametrize("t_mw_sigma_n, seed", [(818.0, 123), (1e-3, 123)])
+def test_profile_interval_of_the_tension_spread(catenary, n2, start, t_mw_sigma_n, seed):
+    # 117 spans of Table 2 laws, with the paper's T_MW spread or none at all (σ 1 mN: the Gamma
+    # law needs σ > 0). With the spread, the profile interval is a proper interval around the
+    # estimate that contains the truth and agrees with the Wald interval of the standard errors
+    # (the likelihood is nearly quadratic in log σ with 117 spans: measured ends within 1 %).
+    # Without it, the interval reaches 0 — "consistent with no spread" — where the Wald interval
+    # in log σ cannot (measured at N = 4000: profile [0, 58] N, Wald [0.17, 840] N).
+    model = make_likelihood(n2, catenary, np.zeros((1, 9)), start=start, n_samples=2).model
+    means, sigmas = _laws(start, t_mw_sigma_n)
+    data = simulate_deflections(model, means, sigmas, 117, seed=seed, system_height_mode=MODE)
+    lik = make_likelihood(n2, catenary, data, start=start, n_samples=2000, seed=1, system_height_mode=MODE)
+    result = identify(lik, start)
+    assert result.converged
+    (mu, sigma) = profile_intervals(lik, start, result, parameters=("messenger_tension_n",))
+    assert (mu.statistic, sigma.statistic) == ("mu", "sigma")
+    assert mu.low < means[9] < mu.high
+    wald = next(w for w in result.intervals(0.95) if w["parameter"] == "messenger_tension_n")
+    if t_mw_sigma_n > 1.0:
+        assert not sigma.no_spread_detected
+        assert sigma.low < t_mw_sigma_n < sigma.high
+        assert sigma.low == pytest.approx(wald["sigma_low"], rel=0.05)
+        assert sigma.high == pytest.approx(wald["sigma_high"], rel=0.05)
+    else:
+        assert sigma.no_spread_detected and sigma.low == 0.0
+        assert sigma.high < 0.2 * TABLE2_MESSENGER_TENSION_N[1]     # far below the paper's 818 N
+        assert wald["sigma_low"] > 0.0                                # the Wald interval cannot say it
+    assert mu.n_evaluations > 0 and sigma.n_evaluations > 0
