@@ -16,8 +16,8 @@ def test_n2_table_reproduces_paper_table2_means(catenary, n2):
     # The paper's means are printed to 1 mm (rounding ±0.5 mm) and are means of 117 identified
     # spans, each uncertain by its standard error σ_i/√117 (Table 2 σ: 0.30–0.65 mm). Tolerance
     # per dropper: 0.5 mm + 3 standard errors (1.45–1.75 mm). Measured deviations: −1.03 −0.55
-    # −0.43 −1.36 −0.66 −1.36 −0.43 −0.55 −1.03 mm; the former 5 mm bound would have let a
-    # presag or dropper-position error of 3 mm through.
+    # −0.43 −1.36 −0.66 −1.36 −0.43 −0.55 −1.03 mm. Tried: a presag 1.5 mm deeper (6 % of 24 mm)
+    # moves the table by up to 2.7 mm and fails; the former 5 mm bound let it through.
     lengths = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
     tolerance = 0.5e-3 + 3.0 * np.asarray(TABLE2_DROPPER_SIGMA_M) / np.sqrt(117)
     assert np.all(np.abs(lengths - TABLE2_DROPPER_MEAN_M) <= tolerance), 1e3 * (lengths - TABLE2_DROPPER_MEAN_M)

@@ -48,7 +48,8 @@ def data(model, truth):
 
 
 SMALL = {"n_samples": 1000, "estimators_n_samples": [200, 400], "band": {"n_samples": 300, "n_points": 31},
-         "normality": {"n_samples": 200}, "system_height_mode": MODE, "seed": 5}
+         "normality": {"n_samples": 200}, "system_height_mode": MODE, "seed": 5,
+         "profile_intervals": {"parameters": ["messenger_tension_n"], "max_evaluations": 150}}
 
 
 @pytest.fixture(scope="module")
@@ -224,7 +225,8 @@ def test_report_names_the_run_figures(written):
     for needle in (f"{r.n_evaluations} by the optimiser", f"{r.n_hessian_evaluations} for the standard errors",
                    f"J(s0) | {run.j_start:.3f}", f"J(s_opt) | {r.j_opt:.3f}", "observed information",
                    "nelder-mead", "N = 1000", "seed 5", "left out M9-M10: test", "](band.png)",
-                   "](estimators.png)", "| T_MW |", "| ΔH |"):
+                   "](estimators.png)", "| T_MW |", "| ΔH |", "## 95 % intervals", "| T_MW | σ |",
+                   "Span model: the span as it hangs in the line"):
         assert needle in text, needle
     assert paths.band.stat().st_size > 0 and paths.estimators.stat().st_size > 0
 

@@ -366,8 +366,13 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
                     "(status %s)", span_type.name, result.status)
     t_profile = time.perf_counter()
     profiled = s.profile_names(n)
-    profiles = (profile_intervals(lik, start, result, parameters=profiled, level=s.profile_level,
-                                  max_evaluations=s.profile_max_evaluations) if profiled else [])
+    profiles = []
+    if profiled and result.status != "ok":
+        # A profile needs the maximum and its curvature: none around a point that is neither.
+        log.warning("%s: no profile intervals (status %s)", span_type.name, result.status)
+    elif profiled:
+        profiles = profile_intervals(lik, start, result, parameters=profiled, level=s.profile_level,
+                                     max_evaluations=s.profile_max_evaluations)
     profile_time = time.perf_counter() - t_profile
     for p in profiles:
         log.info("%s: %s %s = %.6g, %.0f %% profile interval [%.6g, %.6g]%s (%d evaluations)", span_type.name,
@@ -554,8 +559,8 @@ def markdown_report(run: IdentificationRun, *, source: str = "corrected.parquet"
               f"tapered out of p_W) |", ""]
     lines += ["Standard errors: observed information — the Hessian H of J in the optimiser's coordinates θ "
               f"(μ = μ0 + σ0 θ_μ, σ = σ0 exp θ_σ) by central finite differences at s_opt (step {s.hessian_step}), "
-              "covariance (−H)⁻¹, delta method back to μ and σ. Not a profile likelihood. They are conditional "
-              "on the design (the Monte Carlo error of a finite N is not included), treat the spans as "
+              "covariance (−H)⁻¹, delta method back to μ and σ (the profile-likelihood intervals are above). "
+              "They are conditional on the design (the Monte Carlo error of a finite N is not included), treat the spans as "
               "independent, and are blank (–) where −H is not positive definite.", ""]
     lines += ["## Normality of W (Henze–Zirkler)", "",
               f"Model samples: i.i.d. Monte Carlo draws of taut spans (seed {s.seed + 3}), not the design of J "
