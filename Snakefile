@@ -1,5 +1,9 @@
-# Catenary geometry identification workflow (see README.md and ../shared/SPEC.md).
+# Catenary geometry identification workflow (see README.md).
+from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version, validate
+
+from catenary.errors import ConfigError
+from catenary.schema import check as check_config
 
 min_version("9.0")
 
@@ -7,6 +11,12 @@ min_version("9.0")
 configfile: "config/config.yaml"
 
 
+# The package's check first: one or two lines naming the file and key, not a dump of the schema.
+try:
+    check_config(config, "config")
+except ConfigError as error:
+    files = ", ".join(dict.fromkeys(map(str, workflow.configfiles)))
+    raise WorkflowError(f"invalid configuration ({files}): {error}") from None
 validate(config, "workflow/schemas/config.schema.yaml")
 
 
@@ -17,6 +27,8 @@ include: "workflow/rules/measurements.smk"
 include: "workflow/rules/correction.smk"
 include: "workflow/rules/inversion.smk"
 include: "workflow/rules/identification.smk"
+include: "workflow/rules/diagnosis.smk"
+include: "workflow/rules/contact_force.smk"
 
 
 rule all:
@@ -26,4 +38,6 @@ rule all:
         correction_outputs(),
         inversion_outputs(),
         identification_outputs(),
+        diagnosis_outputs(),
+        contact_force_outputs(),
     default_target: True

@@ -1,4 +1,4 @@
-"""Dynamic model speed (SPEC §8): real-time factor (simulated / wall time) of the 10-span run
+"""Dynamic model speed: real-time factor (simulated / wall time) of the 10-span run
 at 300 km/h (target ≥ 1 on one core) and wall time of a 20-span measuring pass at 40 km/h."""
 
 from record import ROOT, record  # noqa: I001  (sets one BLAS thread first)

@@ -1,8 +1,10 @@
-"""Statistical identification speed (SPEC §8): J(s) at N = 1e3…1e6, the whole identification
+"""Statistical identification speed: J(s) at N = 1e3…1e6, the whole identification
 at N = 1e4 (Nelder–Mead and BOBYQA), peak memory of J at N = 1e6, and the Monte Carlo spread of
 J at s_opt over 20 design seeds for the LHS and Sobol designs.
 
-Targets: J < 2 ms at N = 1e3, < 0.2 s at N = 1e5; identification < 1 min at N = 1e4.
+Targets: J < 2 ms at N = 1e3, < 0.2 s at N = 1e5; identification < 1 min at N = 1e4. Also the
+rule's identification on the default campaign's N2 line (span in the line, sandwich standard
+errors) and the cost of its profile intervals of T_MW and ΔH (μ and σ) at N = 1e4.
 Data: 117 synthetic N2 spans under the paper's Table 2 laws (data seed 123, design seed 1).
 
 Memory (N = 1e6) is measured in a fresh subprocess: ``identification_peak_memory_n1e6_mb`` is
@@ -25,7 +27,10 @@ import numpy as np
 from catenary.config import load_catenary
 from catenary.identification.design import default_inputs
 from catenary.identification.fit import identify, make_likelihood
-from catenary.identification.synthetic import simulate_deflections
+from catenary.identification.profile import profile_intervals
+from catenary.identification.settings import IdentificationSettings
+from catenary.identification.synthetic import line_deflections, simulate_deflections
+from catenary.truth import load_truth
 
 TABLE2_DROPPER_SIGMA_M = [0.0067, 0.0050, 0.0045, 0.0045, 0.0038, 0.0044, 0.0035, 0.0034, 0.0070]
 
@@ -92,6 +97,25 @@ def main() -> None:
                               design_method=method)(*s_opt) for k in range(20)]
         figures[f"identification_j_spread_{method}_n1e4"] = float(np.std(js, ddof=1))
         figures[f"identification_j_mean_{method}_n1e4"] = float(np.mean(js))
+
+    # As the rule runs it on a line: 117 N2 spans of the default campaign (static section W, wires
+    # continuous, masts shared), the span in the line, sandwich over the spans sharing a mast,
+    # then the profile intervals of T_MW and ΔH (4 coordinates) at N = 1e4.
+    spec = load_truth(ROOT / "config" / "campaign.yaml", catenary)
+    line = line_deflections(spec, catenary, "N2", seed=spec.seed)
+    settings = IdentificationSettings()
+    s0 = settings.start_inputs(n2, catenary)
+    lik = make_likelihood(n2, catenary, line.w_m, start=s0, n_samples=10_000, seed=1, neighbours=1,
+                          system_height_mode=settings.system_height_mode)
+    t0 = time.perf_counter()
+    r = identify(lik, s0, free_sigmas=settings.random_names(9), mast_pairs=line.mast_pairs, covariance="sandwich")
+    figures["identification_line_sandwich_n1e4_s"] = time.perf_counter() - t0
+    figures["identification_line_evaluations_n1e4"] = r.n_evaluations + r.n_hessian_evaluations
+    t0 = time.perf_counter()
+    profiles = profile_intervals(lik, s0, r, parameters=("messenger_tension_n", "system_height_m"),
+                                 max_evaluations=settings.profile_max_evaluations)
+    figures["identification_profile_intervals_4_parameters_n1e4_s"] = time.perf_counter() - t0
+    figures["identification_profile_intervals_evaluations_n1e4"] = sum(p.n_evaluations for p in profiles)
 
     probe = MEMORY_PROBE.format(config=str(ROOT / "config" / "catenary.yaml"), data=data.tolist())
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)

@@ -1,4 +1,4 @@
-"""Static model speed (SPEC §8): FE solve of one span and of a 20-span section, fast-model
+"""Static model speed: FE solve of one span and of a 20-span section, fast-model
 throughput. Targets: < 20 ms, < 0.5 s, ≥ 1e6 samples/s on one core."""
 
 from record import ROOT, best_time_s, record  # noqa: I001  (sets one BLAS thread first)

@@ -9,7 +9,10 @@ pinned span) it runs the rule's identification (config defaults otherwise, N = 1
 compares T_MW and ΔH μ and σ with the realized truth of the spans (``z`` = (estimate − realized)
 / standard error). A pinned model puts the continuity lift of W (≈ 1.1 mm) into the ΔH mean.
 
-Prints a table and writes ``results/identification_truth_check.json``.
+Standard errors as the rule computes them (``identification.standard_errors: sandwich``: spans
+that share a mast read from the truth's sections and chainages); no profile intervals.
+
+Prints a table and writes ``identification_truth_check.json`` beside the truth file.
 """
 
 from record import ROOT  # noqa: I001  (sets one BLAS thread first)
@@ -23,6 +26,7 @@ import pandas as pd
 
 from catenary.campaign import realized_truth
 from catenary.config import load_catenary
+from catenary.identification.dependence import adjacent_span_pairs
 from catenary.identification.report import run_identification
 from catenary.identification.settings import IdentificationSettings
 
@@ -36,12 +40,13 @@ def main(truth_path: Path) -> None:
         spans = truth[truth["span_type"] == name]
         data = spans[[f"static_w{i + 1}_m" for i in range(st.n_droppers)]].to_numpy()
         realized = realized_truth(truth, spans["span_id"])
+        pairs = adjacent_span_pairs(spans["section_id"], spans["start_chainage_m"], spans["end_chainage_m"])
         for neighbours in (1, 0):
             settings = IdentificationSettings.from_mapping(
-                {"neighbours": neighbours, "estimators_n_samples": [1000],
+                {"neighbours": neighbours, "estimators_n_samples": [1000], "profile_intervals": {"parameters": []},
                  "band": {"n_samples": 500, "n_points": 31}, "normality": {"n_samples": 200}})
             t0 = time.perf_counter()
-            run = run_identification(st, catenary, data, settings)
+            run = run_identification(st, catenary, data, settings, mast_pairs=pairs)
             wall = time.perf_counter() - t0
             e = {x.parameter: x for x in run.result.estimates}
             row = dict(truth=str(truth_path), span_type=name, neighbours=neighbours, n_spans=int(data.shape[0]),
@@ -61,7 +66,7 @@ def main(truth_path: Path) -> None:
                   f"{1e3 * row['dh_sigma_se']:.2f} mm (realized {1e3 * row['dh_sigma_realized']:.2f}, z "
                   f"{row['dh_sigma_z']:+.2f}); {row['status']}, {run.result.n_evaluations} evaluations, {wall:.1f} s",
                   flush=True)
-    out = ROOT / "results" / "identification_truth_check.json"
+    out = truth_path.parent / "identification_truth_check.json"
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(rows, indent=2) + "\n")
     print(f"written {out}")

@@ -1,4 +1,4 @@
-"""The virtual measurement campaign (SPEC §5.2): simulate the recording car over a drawn line.
+"""The virtual measurement campaign: simulate the recording car over a drawn line.
 
 For each section of a :class:`~catenary.truth.Line`, the section model (its true dropper
 lengths, support heights, system heights and per-span tensions) is solved statically (the
@@ -41,6 +41,7 @@ def section_model(line: Line, k: int, catenary: Catenary) -> tuple[Section, np.n
         contact_tension_n=line.params.contact_tension_n[spans],
         messenger_tension_n=line.params.messenger_tension_n[spans],
         dropper_offset_m=np.repeat(line.params.cw_offset_m[spans], n_d),
+        cw_mass_factor=1.0 - line.params.cw_wear_fraction[spans],
     ), spans
 
 
@@ -68,8 +69,7 @@ def simulate_section(line: Line, k: int, catenary: Catenary, pantograph: Pantogr
     """
     section, spans = section_model(line, k, catenary)
     offset = line.masts["chainage_m"][line.spans["left_mast"][spans[0]]]
-    static = solve_static(section, catenary)
-    static_w = static.dropper_deflection_m().reshape(section.n_spans, -1)
+    static_w = solve_static(section, catenary).dropper_deflection_m().reshape(section.n_spans, -1)
 
     masts_x = section.mast_chainage_m
     grid = np.arange(masts_x[0], masts_x[-1] + 1e-9, measurement.sampling_step_m)
@@ -90,6 +90,23 @@ def simulate_section(line: Line, k: int, catenary: Catenary, pantograph: Pantogr
                               "run_id": np.full(grid.size, "campaign")})
     truth = _truth_rows(line, spans, section, offset, static_w, dynamic_w, force)
     return recording, truth
+
+
+def static_truth(line: Line, catenary: Catenary) -> pd.DataFrame:
+    """Truth rows of every span of ``line`` with its static W only (no measuring pass).
+
+    Each section is solved statically as the campaign does (wires continuous over the masts,
+    a mast's ΔH shared by its two spans); the rows are those of :func:`simulate_section`'s
+    truth without the ``dynamic_w*_m`` columns. This is what a perfect correction would hand
+    over: W-level replicates of a campaign for statistical checks of the identification.
+    """
+    parts = []
+    for k in range(len(line.sections)):
+        section, spans = section_model(line, k, catenary)
+        offset = line.masts["chainage_m"][line.spans["left_mast"][spans[0]]]
+        static_w = solve_static(section, catenary).dropper_deflection_m().reshape(section.n_spans, -1)
+        parts.append(_truth_rows(line, spans, section, offset, static_w, None, line.params.measuring_force_n))
+    return pd.concat(parts, ignore_index=True)
 
 
 def line_seed(line: Line) -> int:
@@ -129,6 +146,7 @@ def _truth_rows(line, spans, section, offset, static_w, dynamic_w, force) -> pd.
         "cw_height_right_m": line.masts["cw_height_m"][left + 1],
         "creep_offset_m": p.creep_offset_m[spans],
         "cw_offset_m": p.cw_offset_m[spans],
+        "cw_wear_fraction": p.cw_wear_fraction[spans],
         "measuring_force_n": np.full(spans.size, force),
     }
     n_d = static_w.shape[1]
@@ -136,13 +154,13 @@ def _truth_rows(line, spans, section, offset, static_w, dynamic_w, force) -> pd.
         rows[f"dropper_{i + 1}_length_m"] = p.dropper_lengths_m[spans, i]
     for i in range(n_d):
         rows[f"static_w{i + 1}_m"] = static_w[:, i]
-    for i in range(n_d):
+    for i in range(n_d if dynamic_w is not None else 0):
         rows[f"dynamic_w{i + 1}_m"] = dynamic_w[:, i]
     return pd.DataFrame(rows)
 
 
 def masts_table(line: Line) -> pd.DataFrame:
-    """The masts file of SPEC §5.1 (with span types and design CW heights)."""
+    """The masts file that catenary.recording reads (with span types and design CW heights)."""
     m = line.masts
     span_type = np.empty(m["mast_id"].size, dtype=object)
     span_type[line.spans["left_mast"]] = line.spans["span_type"]

@@ -1,6 +1,6 @@
 """Tensor-product Chebyshev interpolation of vector-valued functions, evaluated in bulk.
 
-Used to carry the tension dependence of the condensed static operator (SPEC §4.3): the exact
+Used to carry the tension dependence of the condensed static operator: the exact
 operator is computed at Chebyshev nodes and interpolated between them, which converges
 spectrally for the smooth (analytic) dependence on tension.
 """

@@ -75,7 +75,7 @@ class SteadyArm:
 
 @dataclass(frozen=True)
 class DynamicSettings:
-    """Settings of the dynamic model (SPEC §4.4).
+    """Settings of the dynamic model.
 
     Attributes
     ----------

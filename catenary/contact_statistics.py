@@ -40,15 +40,22 @@ def lowpass(force_n: np.ndarray, time_step_s: float, cutoff_hz: float = 20.0, or
     return sosfiltfilt(sos, force_n)
 
 
-def contact_statistics(run: RunResult, start_m: float, end_m: float, mast_chainage_m: np.ndarray,
-                       cutoff_hz: float = 20.0) -> ContactStatistics:
-    """Statistics of ``run`` over chainages [start_m, end_m] (filtered at ``cutoff_hz``)."""
+def filtered_window(run: RunResult, start_m: float, end_m: float, cutoff_hz: float = 20.0) -> np.ndarray:
+    """The contact force of ``run`` filtered at ``cutoff_hz`` (over the whole run), at the time
+    steps whose contact point lies in [start_m, end_m] [N]."""
     dt = float(run.time_s[1] - run.time_s[0])
     filtered = lowpass(run.contact_force_n, dt, cutoff_hz)
     window = (run.chainage_m >= start_m) & (run.chainage_m <= end_m)
     if not np.any(window):
         raise ValueError(f"no time step in the analysis window [{start_m}, {end_m}] m")
-    f = filtered[window]
+    return filtered[window]
+
+
+def contact_statistics(run: RunResult, start_m: float, end_m: float, mast_chainage_m: np.ndarray,
+                       cutoff_hz: float = 20.0) -> ContactStatistics:
+    """Statistics of ``run`` over chainages [start_m, end_m] (filtered at ``cutoff_hz``)."""
+    f = filtered_window(run, start_m, end_m, cutoff_hz)
+    window = (run.chainage_m >= start_m) & (run.chainage_m <= end_m)
     mean, std = float(f.mean()), float(f.std())
     masts = (mast_chainage_m >= start_m) & (mast_chainage_m <= end_m)
     uplift = float(run.support_uplift_m[:, masts].max()) if np.any(masts) else float("nan")

@@ -1,4 +1,4 @@
-"""Iterative dynamic correction of measured spans (paper §2.2, Fig. 5; SPEC §7).
+"""Iterative dynamic correction of measured spans (paper §2.2, Fig. 5).
 
 The recording car reports the contact-wire height under a pantograph pushing ≈36 N, not the
 static geometry. For each run of consecutive measured spans (a section, or the part of it

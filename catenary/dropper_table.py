@@ -1,4 +1,4 @@
-"""Inverse static problem: dropper lengths that give a target contact-wire profile (SPEC §4.2).
+"""Inverse static problem: dropper lengths that give a target contact-wire profile.
 
 With the CW heights prescribed at the droppers, the CW equilibrium alone gives the dropper
 tensions (9 equations, 9 unknowns per span); loading the MW with those tensions gives its

@@ -1,4 +1,4 @@
-"""Dynamic pantograph–catenary model (SPEC §4.4).
+"""Dynamic pantograph–catenary model.
 
 Catenary
     The static model's mesh and exact tensioned-beam stiffness (:mod:`catenary.static`), with
@@ -40,6 +40,7 @@ from .config import Catenary, DynamicSettings
 from .errors import ConvergenceError
 from .pantograph import Pantograph
 from .section import Section
+from .dynamics_kernel import band_rows, newmark_contact_loop
 from .static import CW, DOFS_PER_NODE, MW, StaticModel, assemble_matrix, element_dofs
 
 BANDWIDTH = 5  # interleaved [cw_w, cw_θ, mw_w, mw_θ]: farthest coupling is node n ↔ θ of node n+1
@@ -119,7 +120,9 @@ class CatenaryDynamics:
 
         # Mass: consistent for the wires, lumped for clamps, droppers and steady arms.
         h = mesh.element_length_m
-        mass = (assemble_matrix(element_dofs(mesh, CW), beam.consistent_mass(h, catenary.contact.mass_per_length_kg_m), n)
+        cw_mass = beam.consistent_mass(h, catenary.contact.mass_per_length_kg_m) \
+            * section.cw_mass_factor_by_span[mesh.element_span][:, None, None]
+        mass = (assemble_matrix(element_dofs(mesh, CW), cw_mass, n)
                 + assemble_matrix(element_dofs(mesh, MW), beam.consistent_mass(h, catenary.messenger.mass_per_length_kg_m), n))
         lumped = np.zeros(n)
         d = catenary.droppers
@@ -394,7 +397,6 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
     static_solver = PseudoForceSolver(ops, ops.k0)
     reference = float(np.mean(ops.gravity_state.cw_height_at(np.linspace(start, end, 201))))
     u, slack, f0, head0 = _initial_equilibrium(ops, static_solver, pantograph, start, f_mean, reference, k_c)
-    dofs, shape = ops.contact_vector(start)
     v = np.zeros_like(u)
     acc = np.zeros_like(u)
 
@@ -414,37 +416,27 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
 
     solver = PseudoForceSolver(ops, ops.k0 + a0 * ops.mass + a1 * ops.damping)
     mast_dofs = ops.index[DOFS_PER_NODE * ops.mesh.mast_nodes + CW]
-    free_masts = mast_dofs >= 0
     static_mast = ops.gravity_state.cw_height_m[ops.mesh.mast_nodes]
-    out = {k: np.empty(n_steps) for k in ("t", "x", "f", "w", "head", "slack")}
+    out = {k: np.empty(n_steps) for k in ("f", "w", "head", "slack")}
     uplift = np.zeros((n_steps, masts.size))
-    touching = True
-    f_c = f0
-    for step in range(n_steps):
-        t = step * dt
-        x = start + speed_m_s * t
-        if step > 0:
-            rhs = ops.f_const + ops.mass @ (a0 * u + a2 * v + a3 * acc) + ops.damping @ (a1 * u + a4 * v + a5 * acc)
-            rhs_p = e_h * f_mean + m_p @ (a0 * y + a2 * yv + a3 * ya) + c_p @ (a1 * y + a4 * yv + a5 * ya)
-            y_star = k_eff_p_inv @ rhs_p
-            dofs, shape = ops.contact_vector(x)
-            contact = ContactState(dofs, shape, k_c, reference + y_star[0], p_flex[0], touching)
-            u_new, _, slack, f_c, touching = solver.equilibrium(rhs, slack, contact)
-            y_new = y_star + p_flex * f_c
-            acc_new = a0 * (u_new - u) - a2 * v - a3 * acc
-            v = v + dt * ((1 - gamma) * acc + gamma * acc_new)
-            u, acc = u_new, acc_new
-            ya_new = a0 * (y_new - y) - a2 * yv - a3 * ya
-            yv = yv + dt * ((1 - gamma) * ya + gamma * ya_new)
-            y, ya = y_new, ya_new
-            f_c = f_c if touching else 0.0
-        out["t"][step] = t
-        out["x"][step] = x
-        out["f"][step] = f_c
-        out["w"][step] = shape @ u[dofs]
-        out["head"][step] = reference + y[0]
-        out["slack"][step] = slack.sum()
-        uplift[step, free_masts] = u[mast_dofs[free_masts]] - static_mast[free_masts]
+    # The time loop, compiled (catenary.dynamics_kernel): the same steps as the equations above.
+    mass, damping = ops.mass.tocsr(), ops.damping.tocsr()
+    exact = ops._lam is not None
+    status, bad_step = newmark_contact_loop(
+        n_steps, dt, start, speed_m_s, np.array([a0, a1, a2, a3, a4, a5, gamma]), ops.f_const,
+        mass.indptr.astype(np.int64), mass.indices.astype(np.int64), mass.data,
+        damping.indptr.astype(np.int64), damping.indices.astype(np.int64), damping.data,
+        band_rows(solver.factor), solver.z, solver.d, ops.dropper_mw.astype(np.int64), ops.dropper_cw.astype(np.int64),
+        ops.dropper_k.astype(float), ops.dropper_l.astype(float), ops.mesh.x_m.astype(float),
+        ops._lam if exact else np.zeros(1), ops._basis_inverse if exact else np.zeros((1, 4, 4)), exact,
+        ops._element_free_dofs.astype(np.int64), m_p, c_p, k_eff_p_inv, p_flex, f_mean, reference, k_c,
+        mast_dofs.astype(np.int64), static_mast, u, v, acc, y, yv, ya, np.asarray(slack, dtype=np.bool_),
+        True, f0, solver.max_iterations, out["f"], out["w"], out["head"], out["slack"], uplift)
+    if status != 0:
+        raise ConvergenceError(f"dropper/contact states did not settle in {solver.max_iterations} iterations "
+                               f"at step {bad_step} (chainage {start + speed_m_s * bad_step * dt:.2f} m)")
+    out["t"] = np.arange(n_steps) * dt
+    out["x"] = start + speed_m_s * out["t"]
     return RunResult(time_s=out["t"], chainage_m=out["x"], contact_force_n=out["f"], cw_height_m=out["w"],
                      head_height_m=out["head"], support_uplift_m=uplift, slack_droppers=out["slack"].astype(int))
 

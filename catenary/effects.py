@@ -1,45 +1,75 @@
-"""Hidden physical effects: the one place where each effect's physics lives.
+"""Physical effects beyond the identification's base model: the one place each effect's physics lives.
 
-The virtual campaign plants these effects in its truth; the discrepancy workflow will offer the
-same functions as candidate extensions of the fast static model. Each effect acts on the
-per-span parameters of a line (a :class:`SpanParameters` table) and is parameterised by a
-magnitude read from the truth specification:
+The virtual campaign plants these effects in its truth (:func:`catenary.truth.draw_line`), and
+the discrepancy workflow (:mod:`catenary.diagnosis`) offers the same functions as candidate
+extensions of the identification model: the campaign calls :func:`plant` with a seeded
+generator, the diagnosis calls each effect's ``apply`` with standard normal scores taken from
+its sampling design. Truth and candidate can therefore never drift apart.
 
-``messenger_tension_variability`` (``std_n``)
+Each effect acts on a table of per-span parameters (:class:`SpanParameters`), is parameterised
+by magnitudes named in the truth file (SI units), vanishes at its null magnitudes (all 0), and
+takes standard normal draws of one kind (:attr:`Effect.draw`): one per span, per section, per
+mast, or none.
+
+``messenger_tension_variability`` (``std_n``; per span)
     Each span's MW tension deviates from its section's regulated tension by a zero-mean
-    normal amount (friction at the cantilevers, temperature differences).
-``contact_tension_variability`` (``std_n``)
-    Each section's CW tension deviates from the design one (tensioning weights, friction).
-``dropper_creep`` (``mean_m``, ``std_m``)
+    normal amount (friction at the cantilevers and pulleys, temperature differences along the
+    section): ``T_MW += std_n z``.
+``contact_tension_variability`` (``std_n``; per section)
+    Each section's CW tension deviates from the design one (tensioning weights, friction in
+    the balance weight): ``T_CW += std_n z``, common to the spans of the section.
+``dropper_creep`` (``mean_m``, ``std_m``; per span)
     A common offset of all dropper lengths of a span (creep of the dropper wires, or a
-    systematic cutting error of that span's dropper batch).
-``system_height_dropper_correlation`` (``gain``)
+    systematic cutting error of that span's dropper batch): ``L_i += mean_m + std_m z``.
+``system_height_dropper_correlation`` (``gain``; no draw)
     The end droppers follow the system height at their mast: the dropper next to a mast is
-    lengthened by ``gain`` × (ΔH at that mast − its mean), as fitters adjust the first
-    dropper to the measured system height.
-``measuring_force_offset`` (``force_n``)
-    The measuring pantograph pushes ``force_n`` more than the declared force.
-``cw_longitudinal_offset`` (``mean_m``, ``std_m``)
+    lengthened by ``gain`` × (ΔH at that mast − the ΔH law's mean), as fitters adjust the first
+    dropper to the measured system height (paper §4.2).
+``measuring_force_offset`` (``force_n``; no draw)
+    The measuring pantograph pushes ``force_n`` more than the declared force. The correction
+    removes the uplift of the declared force, so the corrected W keeps the uplift of the
+    excess: ``force_n`` times the measured height's sensitivity to the force at the droppers
+    (:func:`catenary.measuring.force_influence`).
+``cw_longitudinal_offset`` (``mean_m``, ``std_m``; per span)
     The CW is shifted along the line relative to the MW (thermal expansion of wires regulated
     from different anchors, or droppers fitted off the design position): every dropper of a
-    span is inclined, its CW clamp ``δ`` from its MW clamp, with ``δ`` drawn per span. The
-    droppers' geometry is :func:`catenary.section.inclined_dropper`; the fast model takes the
-    same offset (``FastSpanModel(cw_clamp_offset_m=...)``).
+    span is inclined, its CW clamp ``δ = mean_m + std_m z`` from its MW clamp. The droppers'
+    geometry is :func:`catenary.section.inclined_dropper` (second order in δ through the
+    vertical rest length, first order through the clamp position).
+``steady_arm_height_difference`` (``std_m``; per mast)
+    Each steady arm holds the CW ``std_m z`` higher than designed, the MW moving with it (ΔH
+    kept), so the two ends of a span differ in height. The projection onto the chord between
+    the steady arms removes it (paper Fig. 3): a negative control for the diagnosis.
+``contact_wire_wear`` (``mean_fraction``, ``std_fraction``; per span)
+    The CW loses a fraction ``ε = mean_fraction + std_fraction z`` of its section by wear (the
+    pantograph strips abrade it; wear limits are 20–30 % of the section). Its weight per
+    metre falls by the same fraction (its bending stiffness, negligible for W, is kept): the
+    droppers carry less, the MW sags less. Its signature is close to a T_MW change: both
+    change the MW's load-to-tension ratio.
 
 All magnitudes are SI. Effects are applied in the order listed in the truth file.
 """
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
+__all__ = ["DRAW_KINDS", "EFFECTS", "Effect", "SpanParameters", "draws_for", "plant"]
+
+#: What one standard normal draw of an effect belongs to.
+DRAW_KINDS = ("span", "section", "mast")
+
 
 @dataclass
 class SpanParameters:
-    """Mutable per-span and per-section parameters of a line during the truth draw.
+    """Mutable per-span and per-section parameters of a line (or of a model sample).
+
+    In a model sample every sample is a span of its own section with masts of its own
+    (``section_index = arange(N)``, ``left_mast = 2 arange(N)``).
 
     Attributes
     ----------
@@ -59,6 +89,12 @@ class SpanParameters:
         Common dropper-length offset planted in each span [m] (0 without creep).
     cw_offset_m : numpy.ndarray
         Longitudinal offset of each span's CW clamps from its MW clamps [m] (0: vertical droppers).
+    left_mast : numpy.ndarray
+        Index of each span's left mast (its right mast is the next one).
+    mast_cw_height_offset_m : numpy.ndarray
+        Raise of the CW (and the MW with it) at each mast's steady arm above its drawn height [m].
+    cw_wear_fraction : numpy.ndarray
+        Fraction of each span's CW section lost by wear (0: new wire).
     """
 
     dropper_lengths_m: np.ndarray
@@ -71,43 +107,136 @@ class SpanParameters:
     measuring_force_n: float
     creep_offset_m: np.ndarray
     cw_offset_m: np.ndarray
+    left_mast: np.ndarray
+    mast_cw_height_offset_m: np.ndarray
+    cw_wear_fraction: np.ndarray
+
+    @classmethod
+    def independent_spans(cls, dropper_lengths_m: np.ndarray, messenger_tension_n: np.ndarray,
+                          system_height_left_m: np.ndarray, system_height_right_m: np.ndarray, *,
+                          system_height_mean_m: float, contact_tension_n: float,
+                          measuring_force_n: float) -> "SpanParameters":
+        """N spans each in a section of its own, with masts of its own (a model sample)."""
+        lengths = np.asarray(dropper_lengths_m, dtype=float)
+        n = lengths.shape[0]
+        return cls(dropper_lengths_m=lengths, system_height_left_m=np.asarray(system_height_left_m, dtype=float),
+                   system_height_right_m=np.asarray(system_height_right_m, dtype=float),
+                   system_height_mean_m=np.full(n, float(system_height_mean_m)),
+                   messenger_tension_n=np.asarray(messenger_tension_n, dtype=float),
+                   contact_tension_n=np.full(n, float(contact_tension_n)), section_index=np.arange(n),
+                   measuring_force_n=float(measuring_force_n), creep_offset_m=np.zeros(n), cw_offset_m=np.zeros(n),
+                   left_mast=2 * np.arange(n), mast_cw_height_offset_m=np.zeros(2 * n), cw_wear_fraction=np.zeros(n))
+
+    @property
+    def n_spans(self) -> int:
+        return int(self.dropper_lengths_m.shape[0])
+
+    @property
+    def n_sections(self) -> int:
+        return int(self.section_index.max()) + 1 if self.section_index.size else 0
+
+    @property
+    def n_masts(self) -> int:
+        return int(self.mast_cw_height_offset_m.size)
+
+    @property
+    def cw_height_offset_left_m(self) -> np.ndarray:
+        return self.mast_cw_height_offset_m[self.left_mast]
+
+    @property
+    def cw_height_offset_right_m(self) -> np.ndarray:
+        return self.mast_cw_height_offset_m[self.left_mast + 1]
 
 
-def messenger_tension_variability(p: SpanParameters, rng: np.random.Generator, *, std_n: float) -> None:
-    p.messenger_tension_n = p.messenger_tension_n + std_n * rng.standard_normal(p.messenger_tension_n.size)
+def messenger_tension_variability(p: SpanParameters, z: np.ndarray, *, std_n: float) -> None:
+    p.messenger_tension_n = p.messenger_tension_n + std_n * z
 
 
-def contact_tension_variability(p: SpanParameters, rng: np.random.Generator, *, std_n: float) -> None:
-    n_sections = int(p.section_index.max()) + 1
-    p.contact_tension_n = p.contact_tension_n + (std_n * rng.standard_normal(n_sections))[p.section_index]
+def contact_tension_variability(p: SpanParameters, z: np.ndarray, *, std_n: float) -> None:
+    p.contact_tension_n = p.contact_tension_n + (std_n * z)[p.section_index]
 
 
-def dropper_creep(p: SpanParameters, rng: np.random.Generator, *, mean_m: float, std_m: float = 0.0) -> None:
-    offset = mean_m + std_m * rng.standard_normal(p.dropper_lengths_m.shape[0])
+def dropper_creep(p: SpanParameters, z: np.ndarray, *, mean_m: float, std_m: float = 0.0) -> None:
+    offset = mean_m + std_m * z
     p.creep_offset_m = p.creep_offset_m + offset
     p.dropper_lengths_m = p.dropper_lengths_m + offset[:, None]
 
 
-def system_height_dropper_correlation(p: SpanParameters, rng: np.random.Generator, *, gain: float) -> None:
+def system_height_dropper_correlation(p: SpanParameters, z: None, *, gain: float) -> None:
     lengths = p.dropper_lengths_m.copy()
+    n = np.sum(np.isfinite(lengths), axis=1) - 1          # last dropper of each span (types may differ)
+    rows = np.arange(lengths.shape[0])
     lengths[:, 0] += gain * (p.system_height_left_m - p.system_height_mean_m)
-    lengths[:, -1] += gain * (p.system_height_right_m - p.system_height_mean_m)
+    lengths[rows, n] += gain * (p.system_height_right_m - p.system_height_mean_m)
     p.dropper_lengths_m = lengths
 
 
-def measuring_force_offset(p: SpanParameters, rng: np.random.Generator, *, force_n: float) -> None:
+def measuring_force_offset(p: SpanParameters, z: None, *, force_n: float) -> None:
     p.measuring_force_n = p.measuring_force_n + force_n
 
 
-def cw_longitudinal_offset(p: SpanParameters, rng: np.random.Generator, *, mean_m: float, std_m: float = 0.0) -> None:
-    p.cw_offset_m = p.cw_offset_m + mean_m + std_m * rng.standard_normal(p.cw_offset_m.size)
+def cw_longitudinal_offset(p: SpanParameters, z: np.ndarray, *, mean_m: float, std_m: float = 0.0) -> None:
+    p.cw_offset_m = p.cw_offset_m + mean_m + std_m * z
 
 
-EFFECTS: dict[str, Callable[..., None]] = {
-    "messenger_tension_variability": messenger_tension_variability,
-    "contact_tension_variability": contact_tension_variability,
-    "dropper_creep": dropper_creep,
-    "system_height_dropper_correlation": system_height_dropper_correlation,
-    "measuring_force_offset": measuring_force_offset,
-    "cw_longitudinal_offset": cw_longitudinal_offset,
-}
+def steady_arm_height_difference(p: SpanParameters, z: np.ndarray, *, std_m: float) -> None:
+    p.mast_cw_height_offset_m = p.mast_cw_height_offset_m + std_m * z
+
+
+def contact_wire_wear(p: SpanParameters, z: np.ndarray, *, mean_fraction: float, std_fraction: float = 0.0) -> None:
+    p.cw_wear_fraction = p.cw_wear_fraction + mean_fraction + std_fraction * z
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A physical effect: its function, the draws it takes and its magnitudes.
+
+    Attributes
+    ----------
+    name : str
+    apply : callable
+        ``apply(p, z, **magnitudes)``: changes the :class:`SpanParameters` ``p`` in place;
+        ``z`` holds standard normal scores, one per span, section or mast (``draw``), or None.
+    draw : str or None
+        One of :data:`DRAW_KINDS`, or None for an effect without randomness.
+    """
+
+    name: str
+    apply: Callable[..., None]
+    draw: str | None
+
+    @property
+    def magnitudes(self) -> tuple[str, ...]:
+        """Keyword names of the magnitudes."""
+        return tuple(k for k, q in inspect.signature(self.apply).parameters.items()
+                     if q.kind is inspect.Parameter.KEYWORD_ONLY)
+
+    @property
+    def required(self) -> tuple[str, ...]:
+        """Magnitudes without a default."""
+        params = inspect.signature(self.apply).parameters
+        return tuple(k for k in self.magnitudes if params[k].default is inspect.Parameter.empty)
+
+
+EFFECTS: dict[str, Effect] = {e.name: e for e in (
+    Effect("messenger_tension_variability", messenger_tension_variability, "span"),
+    Effect("contact_tension_variability", contact_tension_variability, "section"),
+    Effect("dropper_creep", dropper_creep, "span"),
+    Effect("system_height_dropper_correlation", system_height_dropper_correlation, None),
+    Effect("measuring_force_offset", measuring_force_offset, None),
+    Effect("cw_longitudinal_offset", cw_longitudinal_offset, "span"),
+    Effect("steady_arm_height_difference", steady_arm_height_difference, "mast"),
+    Effect("contact_wire_wear", contact_wire_wear, "span"),
+)}
+
+
+def draws_for(kind: str | None, p: SpanParameters) -> int:
+    """Number of standard normal draws an effect of draw ``kind`` takes for ``p``."""
+    return {"span": p.n_spans, "section": p.n_sections, "mast": p.n_masts, None: 0}[kind]
+
+
+def plant(name: str, p: SpanParameters, rng: np.random.Generator, magnitudes: dict[str, float]) -> None:
+    """Draw the effect's standard normal scores from ``rng`` and apply it (the campaign's way)."""
+    effect = EFFECTS[name]
+    z = rng.standard_normal(draws_for(effect.draw, p)) if effect.draw else None
+    effect.apply(p, z, **magnitudes)

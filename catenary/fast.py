@@ -1,4 +1,4 @@
-"""Fast static model of one span for sampling (SPEC §4.3).
+"""Fast static model of one span for sampling.
 
 With every dropper taut, the static FE model of a span (:mod:`catenary.static`) is linear in
 the loads, the dropper lengths and the support heights; only the tensions enter its operator.
@@ -41,7 +41,10 @@ from .config import Catenary, SpanType
 from .dropper_table import nominal_dropper_lengths
 from .errors import OutOfModelRangeError
 from .section import inclined_dropper, single_span, uniform_section
-from .static import CW, DOFS_PER_NODE, StaticModel, wire_height_at
+from .static import CW, DOFS_PER_NODE, StaticModel, wire_height_at, wire_weight_loads
+
+#: Loads of the condensation beyond the base ones (:class:`CondensedSpan`), in column order.
+EXTRA_COLUMNS = ("cw_weight", "raise_left", "raise_right")
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,12 @@ class CondensedSpan:
     the neighbours' wires, which the CW feels through its continuity over the masts.
     ``profile`` (p, 2n + 3), when asked for, gives the CW at p abscissae of the span as
     ``profile @ [F, L, ΔH_l, ΔH_r, 1]`` (the FE shape functions between the nodes).
+
+    ``extra_cw``, ``extra_mw`` (n, 3) and ``w_extra`` (n, 3) are the wires' response to the
+    loads of :data:`EXTRA_COLUMNS`: the central span's CW weight (its whole weight per metre,
+    so a worn wire adds ``−ε`` times this column) and a raise of the central span's left or
+    right steady arm with its MW support (ΔH kept); ``w_extra`` is measured from the chord
+    between the two steady arms, as W is.
     """
 
     flex_cw_m_n: np.ndarray
@@ -73,6 +82,9 @@ class CondensedSpan:
     support_right_cw: np.ndarray
     w_support_left: np.ndarray
     w_support_right: np.ndarray
+    extra_cw: np.ndarray
+    extra_mw: np.ndarray
+    w_extra: np.ndarray
     profile: np.ndarray | None = None
 
 
@@ -132,7 +144,7 @@ def condense_span(span_type: SpanType, catenary: Catenary, messenger_tension_n: 
     f_base = model.f_gravity + f_droppers
     f_base[c] += half_dropper_n
     f_base[m] += half_dropper_n
-    n_rhs = 1 + 2 * n + 2
+    n_rhs = 1 + 2 * n + 2 + len(EXTRA_COLUMNS)
     loads = np.zeros((model.n_dofs, n_rhs))
     supports = np.zeros((fixed.size, n_rhs))
     loads[:, 0] = f_base
@@ -149,17 +161,30 @@ def condense_span(span_type: SpanType, catenary: Catenary, messenger_tension_n: 
     supports[[left_mw, right_mw], 0] = 0.0
     supports[left_mw, 1 + 2 * n] = 1.0
     supports[right_mw, 2 + 2 * n] = 1.0
+    # Extra columns: the central span's CW weight; its left and right steady arms raised with the
+    # MW (fixed = [CW at every mast, MW at every mast]).
+    central_span = np.zeros(n_spans)
+    central_span[neighbours] = 1.0
+    extra = 3 + 2 * n
+    loads[:, extra] = wire_weight_loads(model.mesh, catenary.contact, section.contact_tension_by_span_n, CW, g,
+                                        central_span)
+    supports[[neighbours, left_mw], extra + 1] = 1.0
+    supports[[neighbours + 1, right_mw], extra + 2] = 1.0
     u = np.zeros((model.n_dofs, n_rhs))
     u[fixed] = supports
     u[free] = lu.solve(loads[free] - k_free_fixed @ supports)
     zc, zm = u[c], u[m]
     zw = u[DOFS_PER_NODE * model.mesh.dropper_nodes[central] + CW]
+    # Measured from the chord between the central span's steady arms (only the raises move it).
+    frac = span_type.dropper_positions_m / span_type.length_m
+    zw[:, extra + 1] -= 1.0 - frac
+    zw[:, extra + 2] -= frac
     profile = None
     if profile_x_m is not None:
         at = neighbours * span_type.length_m + np.asarray(profile_x_m, dtype=float)
         columns = np.column_stack([wire_height_at(model.mesh, u[:, j], at, CW) for j in range(n_rhs)])
         # Column order of W: [F, L, ΔH_l, ΔH_r, 1].
-        profile = np.column_stack([columns[:, 1:], columns[:, :1]])
+        profile = np.column_stack([columns[:, 1:extra], columns[:, :1]])
     return CondensedSpan(
         flex_cw_m_n=zc[:, 1:1 + n], flex_mw_m_n=-zm[:, 1:1 + n],
         weight_cw_m=zc[:, 0], weight_mw_m=zm[:, 0],
@@ -167,7 +192,8 @@ def condense_span(span_type: SpanType, catenary: Catenary, messenger_tension_n: 
         support_left_mw=zm[:, 1 + 2 * n], support_right_mw=zm[:, 2 + 2 * n],
         w_flex_m_n=zw[:, 1:1 + n], w_weight_m=zw[:, 0], w_dropper_weight=zw[:, 1 + n:1 + 2 * n],
         support_left_cw=zc[:, 1 + 2 * n], support_right_cw=zc[:, 2 + 2 * n],
-        w_support_left=zw[:, 1 + 2 * n], w_support_right=zw[:, 2 + 2 * n], profile=profile,
+        w_support_left=zw[:, 1 + 2 * n], w_support_right=zw[:, 2 + 2 * n],
+        extra_cw=zc[:, extra:], extra_mw=zm[:, extra:], w_extra=zw[:, extra:], profile=profile,
     )
 
 
@@ -213,13 +239,31 @@ class FastSpanModel:
         span as it hangs in the line, the central one of 2k + 1 identical spans with both wires
         continuous over the masts, the neighbours at the nominal table
         (``reference_lengths_m``) and design system height (:func:`condense_span`).
+    cw_clamp_offset_bounds_m : (float, float), optional
+        Range of a per-sample offset δ of all the span's CW clamps [m] (the
+        ``cw_longitudinal_offset`` effect): the operators are then interpolated in δ too
+        (degree ``offset_degree``) and :meth:`evaluate` takes ``cw_offset_m``. Exclusive with a
+        non-zero ``cw_clamp_offset_m``.
+    contact_degree : int, optional
+        Chebyshev degree in 1/T_CW when T_CW varies (default ``degree``; W is nearly linear in
+        1/T_CW: over ±10 % degree 2 is within 5e-7 m and degree 4 within 2e-10 m of exact
+        condensations, measured).
+    offset_degree : int
+        Chebyshev degree in δ (default 6: within 1e-5 m of exact condensations over ±0.3 m,
+        measured 7.6e-6 m; W is not analytic in δ near 0, where the clamp crosses the point
+        where W is read within the CW's 8 cm bending length, so convergence is slow).
+    extended : bool
+        Carry the loads of :data:`EXTRA_COLUMNS` (a worn CW, raised steady arms), which
+        :meth:`evaluate` then takes as ``cw_wear_fraction`` and ``cw_height_offset_*_m``.
     """
 
     def __init__(self, span_type: SpanType, catenary: Catenary, *,
                  messenger_tension_bounds_n: tuple[float, float] | None = None,
                  contact_tension_bounds_n: tuple[float, float] | None = None,
                  degree: int = 10, reference_lengths_m: np.ndarray | None = None,
-                 cw_clamp_offset_m: float | np.ndarray = 0.0, neighbours: int = 0):
+                 cw_clamp_offset_m: float | np.ndarray = 0.0, neighbours: int = 0,
+                 cw_clamp_offset_bounds_m: tuple[float, float] | None = None, contact_degree: int | None = None,
+                 offset_degree: int = 6, extended: bool = False):
         self.span_type = span_type
         self.catenary = catenary
         t_mw = span_type.messenger_tension_n
@@ -238,50 +282,83 @@ class FastSpanModel:
         if isinstance(neighbours, bool) or int(neighbours) != neighbours or neighbours < 0:
             raise ValueError(f"neighbours: expected an integer ≥ 0, got {neighbours!r}")
         self.neighbours = int(neighbours)
+        self.extended = bool(extended)
         around = dict(neighbours=self.neighbours, neighbour_lengths_m=self.reference_lengths_m)
         # Offsets as the FE mesh sees them (sub-millimetre ones are vertical droppers).
         self.cw_clamp_offset_m = single_span(span_type, self.reference_lengths_m).with_dropper_offsets(
             cw_clamp_offset_m).clamp_offset_m
+        if cw_clamp_offset_bounds_m is None:
+            off_lo = off_hi = 0.0
+        else:
+            off_lo, off_hi = (float(v) for v in cw_clamp_offset_bounds_m)
+            if np.any(self.cw_clamp_offset_m):
+                raise ValueError("cw_clamp_offset_bounds_m: exclusive with a fixed non-zero cw_clamp_offset_m")
+            if not off_lo <= off_hi:
+                raise ValueError(f"cw_clamp_offset_bounds_m: expected lower ≤ upper, got {cw_clamp_offset_bounds_m}")
+            # Both ends must be feasible offsets of every dropper (the Section checks them).
+            for bound in (off_lo, off_hi):
+                single_span(span_type, self.reference_lengths_m).with_dropper_offsets(bound)
+        self.cw_clamp_offset_bounds_m = (off_lo, off_hi)
         offset = self.cw_clamp_offset_m
         ea = catenary.droppers.axial_stiffness_n
         self._ea = ea
         d_ref = np.diag(self.reference_lengths_m / ea)
+        n_extra = len(EXTRA_COLUMNS) if self.extended else 0
+
+        def condensed(p: np.ndarray, **kwargs) -> CondensedSpan:
+            delta = p[2] if cw_clamp_offset_bounds_m is not None else offset
+            return condense_span(span_type, catenary, 1.0 / p[0], 1.0 / p[1], delta, **around, **kwargs)
 
         def force_map(p: np.ndarray) -> np.ndarray:
-            cond = condense_span(span_type, catenary, 1.0 / p[0], 1.0 / p[1], offset, **around)
+            cond = condensed(p)
             a = np.linalg.inv(d_ref + cond.flex_cw_m_n + cond.flex_mw_m_n)
             r0 = cond.weight_mw_m - cond.weight_cw_m
             r_l = cond.dropper_weight_mw - cond.dropper_weight_cw - np.eye(n)
-            # F0 = M @ [L, ΔH_l, ΔH_r, 1]; the correction step needs A itself.
+            # F0 = M @ [L, ΔH_l, ΔH_r, 1 (, extra loads)]; the correction step needs A itself.
             m = np.column_stack([a @ r_l, a @ (cond.support_left_mw - cond.support_left_cw),
-                                 a @ (cond.support_right_mw - cond.support_right_cw), a @ r0])
+                                 a @ (cond.support_right_mw - cond.support_right_cw), a @ r0,
+                                 a @ (cond.extra_mw - cond.extra_cw)[:, :n_extra]])
             return np.concatenate([m.ravel(), a.ravel()])
 
         def deflection_map(p: np.ndarray) -> np.ndarray:
             # A pinned span's CW does not feel T_MW; with neighbours it does, through their droppers.
-            cond = condense_span(span_type, catenary, 1.0 / p[0], 1.0 / p[1], offset, **around)
-            # W = Q @ [F, L, ΔH_l, ΔH_r, 1]
+            cond = condensed(p)
+            # W = Q @ [F, L, ΔH_l, ΔH_r, 1 (, extra loads)]
             return np.column_stack([cond.w_flex_m_n, cond.w_dropper_weight, cond.w_support_left,
-                                    cond.w_support_right, cond.w_weight_m]).ravel()
+                                    cond.w_support_right, cond.w_weight_m, cond.w_extra[:, :n_extra]]).ravel()
 
-        # Interpolate in reciprocal tensions: the string part of the operator is linear in 1/T.
-        lower, upper = [1.0 / mw_hi, 1.0 / cw_hi], [1.0 / mw_lo, 1.0 / cw_lo]
-        force = fit_chebyshev(lambda p: force_map(p)[:n * (n + 3)], lower, upper, degree)
+        self._condensed = condensed
+        # Interpolate in reciprocal tensions (the string part of the operator is linear in 1/T)
+        # and in the clamp offset.
+        lower, upper = [1.0 / mw_hi, 1.0 / cw_hi, off_lo], [1.0 / mw_lo, 1.0 / cw_lo, off_hi]
+        n_force = n * (n + 3 + n_extra)
+        cw_degree = degree if contact_degree is None else int(contact_degree)
+        force = fit_chebyshev(lambda p: force_map(p)[:n_force], lower, upper, (degree, cw_degree, offset_degree))
         # The compliance step is a 1e-4 relative correction: a low degree is exact enough.
-        compliance = fit_chebyshev(lambda p: force_map(p)[n * (n + 3):], lower, upper, min(degree, 4))
+        compliance = fit_chebyshev(lambda p: force_map(p)[n_force:], lower, upper,
+                                   (min(degree, 4), min(cw_degree, 4), min(offset_degree, 4)))
         mw_range = (lower[0], upper[0]) if self.neighbours else (1.0 / t_mw, 1.0 / t_mw)
-        self._w_box = ([mw_range[0], lower[1]], [mw_range[1], upper[1]])
+        self._w_box = ([mw_range[0], lower[1], off_lo], [mw_range[1], upper[1], off_hi])
         # W feels T_MW only through the neighbours' droppers: degree 6 in 1/T_MW is exact to the
         # FE model within 1e-9 m (degree 4: 6e-9 m) over 15–26 kN, at half the cost of degree 14.
-        self._w_degrees = (min(degree, 6), degree)
+        self._w_degrees = (min(degree, 6), cw_degree, offset_degree)
         deflection = fit_chebyshev(deflection_map, *self._w_box, self._w_degrees)
-        self._force = _StackedMap(force, n, n + 3)
+        self._force = _StackedMap(force, n, n + 3 + n_extra)
         self._compliance = _StackedMap(compliance, n, n)
-        self._deflection = _StackedMap(deflection, n, 2 * n + 3)
+        self._deflection = _StackedMap(deflection, n, 2 * n + 3 + n_extra)
+
+    @property
+    def variable_offset(self) -> bool:
+        """True when the CW clamp offset is a per-sample input (``cw_clamp_offset_bounds_m``)."""
+        lo, hi = self.cw_clamp_offset_bounds_m
+        return hi > lo
 
     def evaluate(self, dropper_lengths_m: np.ndarray, messenger_tension_n: np.ndarray,
                  system_height_left_m: np.ndarray, system_height_right_m: np.ndarray,
                  contact_tension_n: np.ndarray | float | None = None, *,
+                 cw_offset_m: np.ndarray | float | None = None, cw_wear_fraction: np.ndarray | float | None = None,
+                 cw_height_offset_left_m: np.ndarray | float | None = None,
+                 cw_height_offset_right_m: np.ndarray | float | None = None,
                  chunk_size: int = 8192) -> FastResult:
         """W, dropper forces and slack flags for N samples.
 
@@ -295,15 +372,22 @@ class FastSpanModel:
             ΔH at the left and right masts [m].
         contact_tension_n : array_like or float, optional
             T_CW [N]; default the span type's design tension.
+        cw_offset_m : array_like or float, optional
+            Offset δ of the span's CW clamps [m] (a model built with
+            ``cw_clamp_offset_bounds_m``; default its lower bound if that is 0, else required).
+        cw_wear_fraction : array_like or float, optional
+            Fraction of the CW section lost by wear (an ``extended`` model; default 0).
+        cw_height_offset_left_m, cw_height_offset_right_m : array_like or float, optional
+            Raise of the left / right steady arm, MW with it [m] (an ``extended`` model; default 0).
         chunk_size : int
             Samples processed at once (bounds the temporary memory).
 
         Raises
         ------
         ValueError
-            If shapes disagree.
+            If shapes disagree, or an input the model was not built for is given.
         OutOfModelRangeError
-            If a tension lies outside the model's bounds (a ``ValueError`` too).
+            If a tension or offset lies outside the model's bounds (a ``ValueError`` too).
         """
         lengths = np.atleast_2d(np.asarray(dropper_lengths_m, dtype=float))
         n_samples = lengths.shape[0]
@@ -311,51 +395,68 @@ class FastSpanModel:
             raise ValueError(f"dropper_lengths_m: expected shape (N, {self.n_droppers}), got {lengths.shape}")
         if contact_tension_n is None:
             contact_tension_n = self.span_type.contact_tension_n
+        extras = (cw_wear_fraction, cw_height_offset_left_m, cw_height_offset_right_m)
+        if not self.extended and any(v is not None for v in extras):
+            raise ValueError("cw_wear_fraction, cw_height_offset_*_m: build the model with extended=True")
+        if cw_offset_m is None:
+            cw_offset_m = self.cw_clamp_offset_bounds_m[0]
+        elif not self.variable_offset and np.any(np.asarray(cw_offset_m) != self.cw_clamp_offset_bounds_m[0]):
+            raise ValueError("cw_offset_m: build the model with cw_clamp_offset_bounds_m")
         columns = [np.broadcast_to(np.asarray(v, dtype=float), (n_samples,)) for v in
-                   (messenger_tension_n, system_height_left_m, system_height_right_m, contact_tension_n)]
-        t_mw, dh_l, dh_r, t_cw = columns
+                   (messenger_tension_n, system_height_left_m, system_height_right_m, contact_tension_n,
+                    cw_offset_m, *(0.0 if v is None else v for v in extras))]
+        t_mw, dh_l, dh_r, t_cw, delta = columns[:5]
+        # A worn CW carries −ε of the central span's CW weight column (EXTRA_COLUMNS order).
+        loads = (np.column_stack([-columns[5], columns[6], columns[7]]) if self.extended
+                 else np.empty((n_samples, 0)))
         for name, values, (lo, hi) in (("messenger_tension_n", t_mw, self.messenger_tension_bounds_n),
                                        ("contact_tension_n", t_cw, self.contact_tension_bounds_n)):
             if np.any(values < lo * (1 - 1e-12)) or np.any(values > hi * (1 + 1e-12)) or np.any(~np.isfinite(values)):
                 raise OutOfModelRangeError(f"{name}: values must lie in the model's bounds [{lo}, {hi}] N "
                                  f"(got {np.nanmin(values)}…{np.nanmax(values)}); build the model with wider bounds")
+        lo, hi = self.cw_clamp_offset_bounds_m
+        if np.any(delta < lo - 1e-12) or np.any(delta > hi + 1e-12) or np.any(~np.isfinite(delta)):
+            raise OutOfModelRangeError(f"cw_offset_m: values must lie in the model's bounds [{lo}, {hi}] m "
+                                       f"(got {np.nanmin(delta)}…{np.nanmax(delta)})")
         w = np.empty((n_samples, self.n_droppers))
         force = np.empty_like(w)
         for start in range(0, n_samples, chunk_size):
             sl = slice(start, min(start + chunk_size, n_samples))
-            force[sl], w[sl] = self._evaluate_chunk(lengths[sl], t_mw[sl], dh_l[sl], dh_r[sl], t_cw[sl])
+            force[sl], w[sl] = self._evaluate_chunk(lengths[sl], t_mw[sl], dh_l[sl], dh_r[sl], t_cw[sl], delta[sl],
+                                                    loads[sl])
         return FastResult(w_m=w, dropper_force_n=force, slack=np.any(force <= 0.0, axis=1))
 
     def profile_map(self, x_m: np.ndarray) -> "ProfileMap":
         """The CW deflection from the chord at abscissae ``x_m`` of the span [m], affine in the
         dropper forces, lengths and ΔH and interpolated in the tensions like W (exact to the FE
-        model; at the dropper abscissae it equals W)."""
+        model; at the dropper abscissae it equals W). Not for a model with a variable offset."""
         x = np.asarray(x_m, dtype=float)
         if x.ndim != 1 or np.any(x < 0) or np.any(x > self.span_type.length_m):
             raise ValueError(f"x_m: expected abscissae within the span [0, {self.span_type.length_m}] m")
+        if self.variable_offset:
+            raise ValueError("profile_map: not available for a model with a variable CW clamp offset")
         t_mw = self.span_type.messenger_tension_n
-        around = dict(neighbours=self.neighbours, neighbour_lengths_m=self.reference_lengths_m, profile_x_m=x)
 
         def profile(p: np.ndarray) -> np.ndarray:
-            t = 1.0 / p[0] if self.neighbours else t_mw
-            return condense_span(self.span_type, self.catenary, t, 1.0 / p[1], self.cw_clamp_offset_m,
-                                 **around).profile.ravel()
+            point = np.array([p[0] if self.neighbours else 1.0 / t_mw, p[1], p[2]])
+            return self._condensed(point, profile_x_m=x).profile.ravel()
 
         interpolant = fit_chebyshev(profile, *self._w_box, self._w_degrees)
         return ProfileMap(x_m=x, operator=_StackedMap(interpolant, x.size, 2 * self.n_droppers + 3))
 
-    def _evaluate_chunk(self, lengths, t_mw, dh_l, dh_r, t_cw):
+    def _evaluate_chunk(self, lengths, t_mw, dh_l, dh_r, t_cw, delta, loads):
         ones = np.ones((lengths.shape[0], 1))
-        tensions = np.column_stack([1.0 / t_mw, 1.0 / t_cw])
-        if np.any(self.cw_clamp_offset_m):
-            rest, stiffness = inclined_dropper(lengths, self.cw_clamp_offset_m, self._ea)
+        points = np.column_stack([1.0 / t_mw, 1.0 / t_cw, delta])
+        offsets = delta[:, None] if self.variable_offset else self.cw_clamp_offset_m
+        if np.any(offsets):
+            rest, stiffness = inclined_dropper(lengths, offsets, self._ea)
             compliance_length = self._ea / stiffness
         else:
             rest = compliance_length = lengths
-        f0 = self._force(tensions, np.column_stack([rest, dh_l, dh_r, ones]))
+        f0 = self._force(points, np.column_stack([rest, dh_l, dh_r, ones, loads]))
         # One fixed-point step for the dropper compliance deviation from the reference lengths.
-        f = f0 - self._compliance(tensions, (compliance_length - self.reference_lengths_m) / self._ea * f0)
-        w = self._deflection(tensions, np.column_stack([f, lengths, dh_l, dh_r, ones]))
+        f = f0 - self._compliance(points, (compliance_length - self.reference_lengths_m) / self._ea * f0)
+        w = self._deflection(points, np.column_stack([f, lengths, dh_l, dh_r, ones, loads]))
         return f, w
 
 
@@ -375,9 +476,9 @@ class ProfileMap:
         t_mw, dh_l, dh_r, t_cw = (np.broadcast_to(np.asarray(v, dtype=float), (n_samples,)) for v in
                                   (messenger_tension_n, system_height_left_m, system_height_right_m,
                                    contact_tension_n))
-        tensions = np.column_stack([1.0 / t_mw, 1.0 / t_cw])
+        points = np.column_stack([1.0 / t_mw, 1.0 / t_cw, np.zeros(n_samples)])
         x = np.column_stack([result.dropper_force_n, lengths, dh_l, dh_r, np.ones(n_samples)])
-        return self.operator(tensions, x)
+        return self.operator(points, x)
 
 
 class _StackedMap:

@@ -2,7 +2,7 @@
 
 Holding every parameter of a span but its dropper lengths at fixed values (T_CW, T_MW and ΔH
 at their design values unless told otherwise, steady arms at the design height), the 9 CW
-deflections W at the droppers determine the 9 dropper lengths uniquely (SPEC §4.2): the CW
+deflections W at the droppers determine the 9 dropper lengths uniquely: the CW
 equilibrium with its heights prescribed at the droppers gives the dropper tensions, the MW
 loaded by them gives its heights, and Hooke's law the unstretched lengths. That is
 :func:`catenary.dropper_table.dropper_lengths_for_cw_heights` on the single-span model of the

@@ -1,4 +1,4 @@
-"""The measuring pass (SPEC §4.5): what a recording car reports over a section.
+"""The measuring pass: what a recording car reports over a section.
 
 The measuring pantograph runs at constant speed and pushes the contact wire up; the car
 records the height of the contact point, which the paper calls the *dynamic sag*. Two modes:
@@ -18,10 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import Catenary
+from .config import Catenary, SpanType
+from .dropper_table import nominal_dropper_lengths
 from .dynamics import CatenaryDynamics, quasi_static_heights, run_pantograph
 from .pantograph import Pantograph
-from .section import Section
+from .section import Section, uniform_section
 
 MODES = ("dynamic", "quasi_static")
 
@@ -84,3 +85,37 @@ def measuring_pass(section: Section, catenary: Catenary, pantograph: Pantograph,
     run = run_pantograph(ops, pantograph, speed_m_s, time_step_s=time_step_s)
     return MeasuredHeights(chainage, np.interp(chainage, run.chainage_m, run.cw_height_m),
                            np.interp(chainage, run.chainage_m, run.contact_force_n))
+
+
+def force_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,
+                    mode: str = "dynamic", time_step_s: float | None = None, neighbours: int = 2,
+                    step_n: float = 1.0) -> np.ndarray:
+    """Sensitivity of the W a measuring pass reports to the pantograph's static force [m/N].
+
+    The central span of ``2 neighbours + 1`` spans of ``span_type`` at the nominal table is run
+    over at the static forces ``F ± step_n`` (``F`` the pantograph's own); W is the height at
+    the droppers measured from the chord through the heights measured at the two masts, as the
+    projection takes it. The correction removes the uplift of the declared force, so a true
+    force higher by ΔF leaves ``ΔF ×`` this vector in the corrected W (the
+    ``measuring_force_offset`` effect). Central difference: exact for the linear response of
+    taut droppers (the measuring force slackens none of them).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_droppers,)
+    """
+    lengths = nominal_dropper_lengths(span_type, catenary).dropper_lengths_m
+    section = uniform_section(span_type, 2 * neighbours + 1, lengths)
+    masts = section.mast_chainage_m[[neighbours, neighbours + 1]]
+    at = np.concatenate([masts[0] + span_type.dropper_positions_m, masts])
+    ops = CatenaryDynamics(section, catenary)
+    n = span_type.n_droppers
+    frac = span_type.dropper_positions_m / span_type.length_m
+
+    def w(force: float) -> np.ndarray:
+        h = measuring_pass(section, catenary, pantograph.with_static_force(force), speed_m_s=speed_m_s, mode=mode,
+                           time_step_s=time_step_s, ops=ops, chainage_m=at).height_m
+        return h[:n] - (h[n] + frac * (h[n + 1] - h[n]))
+
+    f0 = pantograph.static_force_n
+    return (w(f0 + step_n) - w(f0 - step_n)) / (2.0 * step_n)

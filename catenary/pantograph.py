@@ -1,4 +1,4 @@
-"""Lumped-mass pantograph models (SPEC §3), read from config.
+"""Lumped-mass pantograph models, read from config.
 
 A pantograph is a chain of masses, head first: link ``i`` (stiffness ``k_i``, damping ``c_i``)
 joins mass ``i`` to mass ``i + 1``, and the last link joins the lowest mass to the car body.

@@ -1,4 +1,4 @@
-"""Parquet intermediates with an explicit Arrow schema and provenance metadata (SPEC §5.3).
+"""Parquet intermediates with an explicit Arrow schema and provenance metadata.
 
 Every intermediate table of the pipeline is written by :func:`write_table`:
 

@@ -1,4 +1,4 @@
-"""Cut a recording into spans and project the CW heights at the droppers onto the chord (SPEC §2).
+"""Cut a recording into spans and project the CW heights at the droppers onto the chord.
 
 For every pair of consecutive masts of a section (a *span*, id ``"{left_mast_id}-{right_mast_id}"``):
 

@@ -1,4 +1,4 @@
-"""Ingestion of a user's recording and masts files (SPEC §5.1).
+"""Ingestion of a user's recording and masts files.
 
 A **recording** is the contact-wire height measured along the line by a recording car:
 
@@ -45,6 +45,7 @@ and reports why.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -61,7 +62,7 @@ MASTS_REQUIRED = ("mast_id", "chainage_m", "section_id")
 MASTS_OPTIONAL = ("span_type", "cw_height_m")
 
 MAX_SAMPLING_STEP_M = 0.5
-"""Largest median sampling step of a recording [m] (SPEC §5.1)."""
+"""Largest median sampling step of a recording [m]."""
 HEIGHT_RANGE_M = (0.0, 20.0)
 """Plausible CW heights above rail [m]; a median above the upper bound means millimetres."""
 
@@ -148,7 +149,7 @@ def read_data_file(path: str | Path, text_columns: tuple[str, ...] = ()) -> pd.D
         if not path.is_file():
             raise InputError(f"{path}: file not found; expected a CSV file")
         try:
-            df = pd.read_csv(path, dtype={c: str for c in text_columns})
+            df = pd.read_csv(path, dtype={c: str for c in text_columns}, **_csv_dialect(path))
         except pd.errors.EmptyDataError:
             raise InputError(f"{path}: empty file; expected a header row of column names and data rows") from None
         except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
@@ -162,6 +163,20 @@ def read_data_file(path: str | Path, text_columns: tuple[str, ...] = ()) -> pd.D
     df.columns = [str(c).strip() for c in df.columns]
     df.attrs["source"] = str(path)
     return df
+
+
+def _csv_dialect(path: Path) -> dict:
+    """Separator and decimal mark of a CSV file, from its first two lines.
+
+    Comma-separated with decimal points is the format. A header with semicolons and no comma is
+    the common European export (Excel with a comma decimal mark): it is read with ``sep=";"``
+    and, when its first data line holds a digit-comma-digit, ``decimal=","``.
+    """
+    with open(path, encoding="utf-8", errors="replace") as handle:
+        header, first = handle.readline(), handle.readline()
+    if ";" not in header or "," in header:
+        return {}
+    return {"sep": ";", "decimal": "," if re.search(r"\d,\d", first) else "."}
 
 
 def read_recording(path: str | Path) -> pd.DataFrame:
@@ -217,6 +232,10 @@ def _check_table(df: Any, src: str, required: tuple[str, ...], optional: tuple[s
     missing = [c for c in required if c not in names]
     if missing:
         hints = [hint for c in missing for alt, hint in _HINTS.get(c, {}).items() if alt in names]
+        if len(names) == 1 and any(sep in names[0] for sep in (";", "\t", "|")):
+            hints.append("the header is one column holding separators other than commas; expected "
+                         "comma-separated values with decimal points (or semicolons throughout with "
+                         "decimal commas)")
         raise InputError(
             f"{src}: missing required column(s) {', '.join(map(repr, missing))}; expected columns "
             f"{', '.join(required)} (optional: {', '.join(optional)}); found: "
@@ -345,6 +364,13 @@ def validate_recording(df: pd.DataFrame, source: str | None = None) -> pd.DataFr
         bad = np.flatnonzero(step <= 0)
         if bad.size:
             i = int(bad[0]) + 1
+            runs = df["run_id"].dropna().astype(str).unique() if "run_id" in df.columns else ()
+            if len(runs) > 1:
+                raise InputError(
+                    f"{src}: column 'run_id' holds {len(runs)} measuring runs ({', '.join(map(repr, runs[:5]))}"
+                    f"{', …' if len(runs) > 5 else ''}) and the chainage restarts at {row_label(i, src)}; "
+                    "expected one run per recording file: split the file by run_id and process each run "
+                    "as its own recording")
             raise InputError(
                 f"{src}: {row_label(i, src)}, column 'chainage_m': {chainage[i]:.6g} m is not greater than "
                 f"the previous row's {chainage[i - 1]:.6g} m; expected strictly increasing chainage "

@@ -78,6 +78,10 @@ class Section:
     dropper_offset_m : float or numpy.ndarray
         Offset of each dropper's CW clamp from its MW clamp along the line [m] (inclined
         droppers; positive towards increasing chainage). Default 0: vertical droppers.
+    cw_mass_factor : float or numpy.ndarray
+        CW mass per length of each span as a fraction of the catenary's (one value, or one per
+        span; ``1 − ε`` for a wire worn by a fraction ε of its section: the
+        ``contact_wire_wear`` effect). Default 1.
     """
 
     span_lengths_m: np.ndarray
@@ -89,6 +93,7 @@ class Section:
     contact_tension_n: float | np.ndarray
     messenger_tension_n: float | np.ndarray
     dropper_offset_m: float | np.ndarray = 0.0
+    cw_mass_factor: float | np.ndarray = 1.0
 
     def __post_init__(self) -> None:
         for name in ("span_lengths_m", "dropper_x_m", "dropper_lengths_m",
@@ -118,6 +123,12 @@ class Section:
             bad = int(np.flatnonzero(np.abs(offset) >= self.dropper_lengths_m)[0])
             raise ConfigError(f"dropper_offset_m[{bad}] = {offset[bad]} m: a dropper of length "
                               f"{self.dropper_lengths_m[bad]} m cannot reach that far")
+        factor = np.asarray(self.cw_mass_factor, dtype=float)
+        if factor.ndim and factor.shape != (n_spans,):
+            raise ConfigError(f"cw_mass_factor: expected one factor or {n_spans} (one per span), got shape {factor.shape}")
+        if np.any(~np.isfinite(factor)) or np.any(factor <= 0):
+            raise ConfigError(f"cw_mass_factor: expected factors > 0, got {factor}")
+        object.__setattr__(self, "cw_mass_factor", float(factor) if factor.ndim == 0 else factor)
         for name in ("contact_tension_n", "messenger_tension_n"):
             value = np.asarray(getattr(self, name), dtype=float)
             if value.ndim == 0:
@@ -157,6 +168,11 @@ class Section:
     def messenger_tension_by_span_n(self) -> np.ndarray:
         """T_MW of each span [N], shape (n_spans,)."""
         return np.broadcast_to(np.asarray(self.messenger_tension_n, dtype=float), (self.n_spans,))
+
+    @property
+    def cw_mass_factor_by_span(self) -> np.ndarray:
+        """CW mass per length of each span relative to the catenary's, shape (n_spans,)."""
+        return np.broadcast_to(np.asarray(self.cw_mass_factor, dtype=float), (self.n_spans,))
 
     @property
     def mast_chainage_m(self) -> np.ndarray:

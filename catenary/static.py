@@ -1,4 +1,4 @@
-"""Static finite-element model of a catenary section (SPEC §4.1).
+"""Static finite-element model of a catenary section.
 
 Contact wire (CW) and messenger wire (MW) are pre-tensioned Euler–Bernoulli beams on a shared
 mesh, with the exact tensioned-beam element of :mod:`catenary.beam` (nodally exact for any
@@ -132,6 +132,26 @@ def wire_stiffness(mesh: Mesh, wire: Wire, tension_by_span_n: np.ndarray, wire_o
     return assemble_matrix(element_dofs(mesh, wire_offset), k, DOFS_PER_NODE * mesh.n_nodes)
 
 
+def wire_weight_loads(mesh: Mesh, wire: Wire, tension_by_span_n: np.ndarray, wire_offset: int, gravity_m_s2: float,
+                      mass_factor_by_span: np.ndarray | None = None) -> np.ndarray:
+    """Work-equivalent nodal loads of one wire's weight [N, N·m], exact shape functions.
+
+    Parameters
+    ----------
+    mass_factor_by_span : numpy.ndarray, optional
+        Mass per length of each span relative to ``wire``'s (a worn CW; 0 leaves a span's wire
+        weightless, which the fast model uses to isolate one span's weight). Default 1.
+    """
+    h, tension, inverse = _unique_elements(mesh, tension_by_span_n)
+    q = -wire.mass_per_length_kg_m * gravity_m_s2
+    loads = beam.tensioned_uniform_load(h, q, wire.bending_stiffness_n_m2, tension)[inverse]
+    if mass_factor_by_span is not None:      # the load is linear in q: scale it per element
+        loads = loads * np.asarray(mass_factor_by_span, dtype=float)[mesh.element_span][:, None]
+    f = np.zeros(DOFS_PER_NODE * mesh.n_nodes)
+    np.add.at(f, element_dofs(mesh, wire_offset), loads)
+    return f
+
+
 def cw_point_load_vector(mesh: Mesh, chainage_m: np.ndarray, force_n: np.ndarray,
                          contact: Wire, contact_tension_by_span_n: np.ndarray) -> np.ndarray:
     """Work-equivalent nodal loads of vertical point forces on the CW (upward positive)
@@ -188,12 +208,8 @@ class StaticModel:
         cat, mesh, sec = self.catenary, self.mesh, self.section
         g = cat.gravity_m_s2
         f = np.zeros(DOFS_PER_NODE * mesh.n_nodes)
-        for wire, offset, by_span in ((cat.contact, CW, sec.contact_tension_by_span_n),
-                                      (cat.messenger, MW, sec.messenger_tension_by_span_n)):
-            h, tension, inverse = _unique_elements(mesh, by_span)
-            q = -wire.mass_per_length_kg_m * g
-            loads = beam.tensioned_uniform_load(h, q, wire.bending_stiffness_n_m2, tension)[inverse]
-            np.add.at(f, element_dofs(mesh, offset), loads)
+        f += wire_weight_loads(mesh, cat.contact, sec.contact_tension_by_span_n, CW, g, sec.cw_mass_factor_by_span)
+        f += wire_weight_loads(mesh, cat.messenger, sec.messenger_tension_by_span_n, MW, g)
         half_dropper = 0.5 * cat.droppers.mass_per_length_kg_m * sec.dropper_lengths_m
         np.add.at(f, self.dropper_cw_dof, -g * (cat.droppers.clamp_mass_contact_kg + half_dropper))
         np.add.at(f, self.dropper_mw_dof, -g * (cat.droppers.clamp_mass_messenger_kg + half_dropper))

@@ -1,4 +1,4 @@
-"""Truth specification of the virtual measurement campaign and its seeded draw (SPEC §5.2).
+"""Truth specification of the virtual measurement campaign and its seeded draw.
 
 The truth file (``config/campaign.yaml``) describes a line of tensioning sections of spans,
 the random laws of the per-span parameters, the section tensions, the hidden effects of
@@ -14,8 +14,6 @@ them; tensions per section.
 
 from __future__ import annotations
 
-import inspect
-
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
@@ -25,7 +23,7 @@ import yaml
 
 from .config import Catenary
 from .dropper_table import nominal_dropper_lengths
-from .effects import EFFECTS, SpanParameters
+from .effects import EFFECTS, SpanParameters, plant
 from .errors import ConfigError
 from .schema import check
 
@@ -152,9 +150,7 @@ def truth_from_dict(raw: Mapping[str, Any], catenary: Catenary, where: str = "ca
         if name not in EFFECTS:
             raise ConfigError(f"{w}.name: unknown effect {name!r}; known: {', '.join(EFFECTS)}")
         magnitude = {k: float(v) for k, v in e.items() if k != "name"}
-        accepted = inspect.signature(EFFECTS[name]).parameters
-        keys = [k for k, q in accepted.items() if q.kind is inspect.Parameter.KEYWORD_ONLY]
-        required = [k for k in keys if accepted[k].default is inspect.Parameter.empty]
+        keys, required = list(EFFECTS[name].magnitudes), list(EFFECTS[name].required)
         unknown = sorted(set(magnitude) - set(keys))
         missing = sorted(set(required) - set(magnitude))
         if unknown or missing:
@@ -255,9 +251,13 @@ def draw_line(spec: TruthSpec, catenary: Catenary) -> Line:
         dropper_lengths_m=lengths, system_height_left_m=dh[left], system_height_right_m=dh[left + 1],
         system_height_mean_m=dh_mean, messenger_tension_n=t_mw, contact_tension_n=t_cw,
         section_index=section_index, measuring_force_n=spec.measurement.force_n, creep_offset_m=np.zeros(n_spans),
-        cw_offset_m=np.zeros(n_spans))
+        cw_offset_m=np.zeros(n_spans), left_mast=left, mast_cw_height_offset_m=np.zeros(n_masts),
+        cw_wear_fraction=np.zeros(n_spans))
     for name, magnitude in spec.hidden_effects:
-        EFFECTS[name](params, rng, **magnitude)
+        plant(name, params, rng, magnitude)
+    if np.any(params.cw_wear_fraction < 0) or np.any(params.cw_wear_fraction >= 1):
+        raise ConfigError("campaign: drawn contact-wire wear fractions must lie in [0, 1); check contact_wire_wear")
+    cw_height = cw_height + params.mast_cw_height_offset_m
     if np.any(params.dropper_lengths_m[~np.isnan(params.dropper_lengths_m)] <= 0):
         raise ConfigError("campaign: drawn dropper lengths must be positive; check the laws and effects")
     mast_ids = np.array(mast_ids)

@@ -1,4 +1,4 @@
-"""Rule dropper_table: nominal dropper table of one span type (SPEC §4.2)."""
+"""Rule dropper_table: nominal dropper table of one span type."""
 
 import pandas as pd
 

@@ -1,4 +1,4 @@
-"""Rule identify: maximum-likelihood identification of one span type's input laws (SPEC §6)."""
+"""Rule identify: maximum-likelihood identification of one span type's input laws."""
 
 from pathlib import Path
 
@@ -18,7 +18,8 @@ data = read_corrected(snakemake.input.corrected, span_type)
 log.info("%s: %d converged spans used, %d left out", span_type.name, data.w_m.shape[0], len(data.left_out))
 for span_id, why in data.left_out:
     log.info("left out %s: %s", span_id, why)
-run = run_identification(span_type, catenary, data.w_m, settings, left_out=data.left_out, log=log)
+run = run_identification(span_type, catenary, data.w_m, settings, left_out=data.left_out,
+                         mast_pairs=data.mast_pairs, log=log)
 out = snakemake.output
 write_identification(run, IdentificationPaths(s_opt=Path(out.s_opt), trace=Path(out.trace),
                                               estimators=Path(out.estimators), normality=Path(out.normality),

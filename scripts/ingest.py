@@ -1,4 +1,4 @@
-"""Rule ingest: check the recording and masts files (SPEC §5.1) and write them as Parquet."""
+"""Rule ingest: check the recording and masts files and write them as Parquet."""
 
 from catenary.logs import rule_logger
 from catenary.parquet import config_hash

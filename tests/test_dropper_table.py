@@ -1,4 +1,4 @@
-"""Nominal dropper table and the inverse static solver (SPEC §4.2, paper Table 2)."""
+"""Nominal dropper table and the inverse static solver (paper Table 2)."""
 
 import numpy as np
 import pytest

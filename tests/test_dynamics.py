@@ -1,4 +1,4 @@
-"""Dynamic pantograph–catenary model (SPEC §4.4–4.5, issue [2])."""
+"""Dynamic pantograph–catenary model."""
 
 import dataclasses
 

@@ -1,4 +1,4 @@
-"""Fast sampling model against the FE model (SPEC §4.3)."""
+"""Fast sampling model against the FE model."""
 
 import numpy as np
 import pytest

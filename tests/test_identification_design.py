@@ -1,4 +1,4 @@
-"""Random inputs, Gamma laws and the unit-cube design of the identification (SPEC §6)."""
+"""Random inputs, Gamma laws and the unit-cube design of the identification."""
 
 import numpy as np
 import openturns as ot

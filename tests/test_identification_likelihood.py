@@ -1,4 +1,4 @@
-"""J(s): determinism, the Gaussian and kernel estimators, slack handling (SPEC §6)."""
+"""J(s): determinism, the Gaussian and kernel estimators, slack handling."""
 
 import numpy as np
 import pytest

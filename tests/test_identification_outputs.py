@@ -17,8 +17,8 @@ from catenary.identification.design import draw_unit_design
 from catenary.identification.fit import identify, make_likelihood
 from catenary.identification.likelihood import Likelihood, fit_gaussian, kernel_bandwidth
 from catenary.identification.outputs import IdentificationPaths, write_identification
-from catenary.identification.report import (S_OPT_COLUMNS, marginal_densities, normality_report, read_corrected,
-                                            run_identification)
+from catenary.identification.report import (S_OPT_COLUMNS, marginal_densities, markdown_report, normality_report,
+                                            read_corrected, run_identification)
 from catenary.identification.settings import DETERMINISTIC_CV, IdentificationSettings
 from catenary.identification.synthetic import simulate_deflections
 from catenary.normality import henze_zirkler
@@ -263,6 +263,41 @@ def test_read_corrected_keeps_converged_spans_and_says_why_others_left(tmp_path,
     df.to_parquet(tmp_path / "bad.parquet")
     with pytest.raises(InputError, match="bad.parquet: missing column.*w9_m"):
         read_corrected(tmp_path / "bad.parquet", n2)
+
+
+def test_read_corrected_says_which_used_spans_share_a_mast(tmp_path, n2):
+    path = _corrected(tmp_path, [True, False, True, True])
+    assert read_corrected(path, n2).mast_pairs is None          # no chainages: adjacency unknown
+    df = pq.read_table(path).to_pandas()
+    df["start_chainage_m"] = [0.0, 58.5, 117.0, 175.5]
+    df["end_chainage_m"] = df["start_chainage_m"] + 58.5
+    df.to_parquet(tmp_path / "with_chainages.parquet")
+    d = read_corrected(tmp_path / "with_chainages.parquet", n2)
+    # S1 did not converge: of the used rows S0, S2, S3 only S2 and S3 still share a mast.
+    assert d.mast_pairs.tolist() == [[1, 2]]
+
+
+def test_report_says_how_spans_sharing_masts_widened_the_intervals(written, tmp_path):
+    import dataclasses
+
+    from catenary.identification.profile import ProfileInterval
+
+    run, _, _ = written
+    assert "treated as independent" in markdown_report(run)     # no adjacency given to that run
+    r = run.result
+    sandwich = r.theta_covariance * 1.5                           # λ = 1.5 on every coordinate
+    widened = dataclasses.replace(r, covariance="sandwich", theta_covariance_sandwich=sandwich, n_mast_pairs=111)
+    none = ProfileInterval("messenger_tension_n", "sigma", 12.0, 0.0, 65.0, True, False, 100)
+    paths = IdentificationPaths.in_folder(tmp_path)
+    write_identification(dataclasses.replace(run, result=widened, profiles=[none]), paths, config_hash="abc")
+    text = paths.report.read_text()
+    assert "111 pairs of spans sharing a mast" in text and "T_MW σ ×1.50" in text
+    assert "consistent with no spread" in text
+    table = pd.read_csv(paths.s_opt).set_index("parameter")
+    assert table.loc["messenger_tension_n", "sigma_variance_widening"] == pytest.approx(1.5)
+    assert table.loc["messenger_tension_n", "no_spread_detected"]
+    assert table.loc["messenger_tension_n", "sigma_profile_low"] == 0.0
+    assert np.isnan(table.loc["dropper_1_length_m", "mu_variance_widening"])     # μ fixed: not identified
 
 
 @pytest.mark.parametrize("mapping, message", [

@@ -50,5 +50,8 @@ def test_profile_interval_of_the_tension_spread(catenary, n2, start, t_mw_sigma_
     else:
         assert sigma.no_spread_detected and sigma.low == 0.0
         assert sigma.high < 0.2 * TABLE2_MESSENGER_TENSION_N[1]     # far below the paper's 818 N
-        assert wald["sigma_low"] > 0.0                                # the Wald interval cannot say it
+        # The Wald interval in log σ cannot say it: it stays above 0, or, with the estimate on the
+        # lower edge of the box (J flat in σ there), it has no standard error at all.
+        assert wald["sigma_low"] > 0.0 or ("messenger_tension_n.sigma" in result.at_lower_bound
+                                           and np.isnan(wald["sigma_low"]))
     assert mu.n_evaluations > 0 and sigma.n_evaluations > 0

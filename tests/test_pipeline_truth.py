@@ -74,3 +74,45 @@ def test_identification_recovers_the_realized_truth(span_type):
         assert abs(rows.loc[key, "z"]) < 3.0, (key, rows.loc[key].to_dict())
     droppers = rows[rows.index.get_level_values("parameter").str.startswith("dropper_")]
     assert len(droppers) == 9 and np.all(np.abs(droppers["z"]) < 3.5), droppers["z"].to_dict()
+
+
+@pytest.mark.parametrize("span_type", ["N2", "N3"])
+def test_diagnosis_rediscovers_the_tension_spread(span_type):
+    # The small profile's truth plants one hidden effect, the per-span T_MW spread of 818 N, and
+    # its diagnosis starts from the paper's first model (T_MW not random): step 1 must name that
+    # spread (with 20 spans its score z is ≈ 8, measured), within 3 standard errors of the spread
+    # realized in the 20 spans, and step 2 must find nothing. A correction off by 4 N (the
+    # failure the test above catches) would not be named: its influence is absorbed by the free
+    # T_MW and ΔH means (README, "Discrepancy workflow").
+    table = _table("diagnosis_check.csv").reset_index()
+    rows = table[table["span_type"] == span_type].sort_values("step")
+    first = rows.iloc[0]
+    assert (first["verdict"], first["effect"], first["parameter"]) == ("named", "messenger_tension_variability", "std_n")
+    assert abs(first["z"]) < 3.0, first.to_dict()
+    assert rows.iloc[-1]["verdict"] == "none_detected"
+    assert "steady_arm_height_difference" not in set(rows["effect"])
+
+
+@pytest.mark.parametrize("span_type", ["N2", "N3"])
+def test_diagnosis_files_say_what_was_found(span_type):
+    # What the small profile's diagnose rule wrote: the documented columns, one findings row per
+    # step agreeing with candidates.csv, the plain-words summary naming the effect, the figures.
+    import json
+
+    from catenary.diagnosis.outputs import CANDIDATE_COLUMNS, FINDING_COLUMNS, DiagnosisPaths
+
+    paths = DiagnosisPaths.in_folder(ROOT / "results" / "ci" / span_type / "diagnosis")
+    findings = pd.read_csv(paths.findings)
+    assert list(findings.columns) == list(FINDING_COLUMNS)
+    assert findings["verdict"].tolist() == ["named", "none_detected"]
+    candidates = pd.read_csv(paths.candidates)
+    assert list(candidates.columns) == list(CANDIDATE_COLUMNS)
+    assert set(candidates["step"]) == {1, 2}
+    named = candidates[(candidates["step"] == 1) & (candidates["effect"] == "messenger_tension_variability")]
+    assert json.loads(named["parameters"].iloc[0]) == json.loads(findings.loc[0, "parameters"])
+    # Δℓ of a nested refit is ≥ 0 up to the optimiser's tolerance on J (half a unit at most).
+    assert (candidates["delta_loglik"] > -0.5).all()
+    text = paths.summary.read_text()
+    assert "Named: `messenger_tension_variability`" in text and "No missing effect detected" in text
+    for figure in (paths.residuals, paths.eigenvalues, paths.qq, paths.scores):
+        assert figure.stat().st_size > 10_000

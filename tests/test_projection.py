@@ -148,7 +148,7 @@ def test_round_trip_recovers_w(catenary, with_types):
 
 
 def test_steady_arm_offsets_do_not_change_w(catenary):
-    # SPEC §7 / paper Fig. 3 in projection terms: adding a straight line (different steady-arm
+    # Paper Fig. 3 in projection terms: adding a straight line (different steady-arm
     # heights) to the recording of a span leaves its W unchanged.
     recording, masts, truth, _ = synthetic_line(catenary, seed=3, sigma=0.0, quantum=1e-9)
     base = project(recording, masts, catenary)

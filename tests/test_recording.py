@@ -1,4 +1,4 @@
-"""Ingestion of recording and masts files (SPEC §5.1) and the Parquet intermediates (SPEC §5.3)."""
+"""Ingestion of recording and masts files and the Parquet intermediates."""
 
 import hashlib
 
@@ -310,3 +310,50 @@ def test_missing_file_and_unknown_extension(tmp_path):
     (tmp_path / "r.xlsx").write_text("x")
     with pytest.raises(InputError, match=r"r\.xlsx: unsupported file type '\.xlsx'; expected \.csv or \.parquet"):
         read_recording(tmp_path / "r.xlsx")
+
+
+# --------------------------------------------------------------------------------------------
+# what a user meets first (issue [8])
+# --------------------------------------------------------------------------------------------
+
+def test_semicolon_csv_with_decimal_commas_reads_as_the_comma_file(tmp_path):
+    # The common European export: ';' separators, ',' decimal marks. Read to the same numbers.
+    rec = recording_frame()
+    reference = read_recording(write_csv(rec, tmp_path / "r.csv"))
+    rec.to_csv(tmp_path / "eu.csv", index=False, sep=";", decimal=",")
+    eu = read_recording(tmp_path / "eu.csv")
+    pd.testing.assert_frame_equal(eu, reference, check_like=False, check_exact=True)
+
+
+def test_one_column_header_with_other_separators_gets_a_hint(tmp_path):
+    path = tmp_path / "tabs.csv"
+    path.write_text("chainage_m\theight_m\n1.0\t5.08\n")         # tab-separated: not read, but said
+    with pytest.raises(InputError, match=r"tabs\.csv: missing required column.*separators other than commas"):
+        read_recording(path)
+
+
+def test_two_runs_in_one_file_are_refused_naming_run_id(tmp_path):
+    rec = pd.concat([recording_frame().assign(run_id="up"), recording_frame().assign(run_id="down")],
+                    ignore_index=True)
+    with pytest.raises(InputError, match=r"two\.csv: column 'run_id' holds 2 measuring runs \('up', 'down'\) "
+                                         r"and the chainage restarts at row 201 .*split the file by run_id"):
+        read_recording(write_csv(rec, tmp_path / "two.csv"))
+
+
+def test_a_rule_script_error_is_one_line_in_its_log_and_no_traceback(tmp_path):
+    # What a rule script does on bad input: rule_logger, then an InputError left uncaught.
+    import subprocess
+    import sys
+
+    log = tmp_path / "rule.log"
+    script = (f"from catenary.logs import rule_logger\nfrom catenary.recording import read_recording\n"
+              f"rule_logger('ingest', {str(log)!r})\nread_recording({str(tmp_path / 'absent.csv')!r})\n")
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert run.returncode == 1
+    assert "Traceback" not in run.stderr
+    lines = log.read_text().strip().splitlines()
+    assert len(lines) == 1 and "InputError" in lines[0] and "absent.csv: file not found" in lines[0]
+    # A bug (not a CatenaryError) keeps its traceback, in the log too.
+    bug = subprocess.run([sys.executable, "-c", f"from catenary.logs import rule_logger\n"
+                          f"rule_logger('x', {str(log)!r})\n1 / 0\n"], capture_output=True, text=True)
+    assert bug.returncode == 1 and "Traceback" in log.read_text() and "a bug" in log.read_text()

@@ -1,4 +1,4 @@
-"""Sensitivity study (paper Figs 2–4, SPEC §7)."""
+"""Sensitivity study (paper Figs 2–4)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Static FE model against analytic results (SPEC §4.1, §7)."""
+"""Static FE model against analytic results (§7)."""
 
 import dataclasses
 

@@ -1,4 +1,4 @@
-"""Statistical identification of the random inputs of a span type (SPEC §6, paper §3).
+"""Statistical identification of the random inputs of a span type (paper §3).
 
 * :mod:`.design` — random inputs, their Gamma laws and the unit-cube design drawn once;
 * :mod:`.likelihood` — J(s) = Σ_k ln p_W(W_k; s) with a Gaussian or kernel estimate of p_W;

@@ -1,4 +1,4 @@
-"""Random inputs of the statistical identification, their laws and the sampling design (SPEC §6).
+"""Random inputs of the statistical identification, their laws and the sampling design.
 
 Random inputs
 -------------
@@ -28,7 +28,7 @@ Table 2 spans, J at s_opt over 20 design seeds). The standard deviation of J acr
 0.70–0.79 for LHS and 0.10 for Sobol at N = 1e4 (LHS 1.46 / 0.79 / 0.39 and Sobol
 0.26 / 0.11 / 0.036 at N = 2048 / 8192 / 32768 over 40 seeds: LHS converges as N^(−1/2), Sobol
 faster), and the spread of s_opt over 10 seeds is about 3× smaller (T_MW σ: 0.9 N against 3.3 N,
-for a standard error of ≈ 50 N). The paper and SPEC §6 use LHS: ``method="lhs"`` keeps it.
+for a standard error of ≈ 50 N). The paper uses LHS: ``method="lhs"`` keeps it.
 
 Inverse CDF (fast path)
 -----------------------

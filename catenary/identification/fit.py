@@ -5,7 +5,8 @@ Parameterisation
 Around the starting laws s0 (means μ0, standard deviations σ0), each free mean and σ gets a
 dimensionless coordinate of order one:
 
-    μ = μ0 + σ0 θ_μ        (i.e. μ = μ0 (1 + δ) with δ = θ_μ σ0/μ0: the shift in starting σ)
+    μ = μ0 + σ0 θ_μ        (i.e. μ = μ0 (1 + δ) with δ = θ_μ σ0/μ0: the shift in starting σ;
+                            a deterministic input's free mean moves in units of 1 % of μ0)
     σ = σ0 exp(θ_σ)
 
 Which means are free is configurable; the default frees the T_MW and ΔH means and fixes the
@@ -44,14 +45,20 @@ from ..config import Catenary, SpanType
 from ..fast import FastSpanModel
 from .design import (DEFAULT_DESIGN, MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, default_inputs,
                      design_dimension, draw_unit_design)
+from .dependence import robust_covariance, widened_covariance
 from .likelihood import Likelihood
 from .result import IdentificationResult, ParameterEstimate
 
-__all__ = ["METHODS", "ParameterBox", "ScaledProblem", "identify", "make_likelihood",
-           "messenger_tension_bounds_n", "observed_information"]
+__all__ = ["COVARIANCES", "METHODS", "ParameterBox", "ScaledProblem", "identify", "make_likelihood",
+           "messenger_tension_bounds_n", "observed_covariance", "observed_information", "run_nelder_mead"]
 
 METHODS = ("nelder-mead", "bobyqa")
+COVARIANCES = ("observed_information", "sandwich")
 DEFAULT_FREE_MEANS = (MESSENGER_TENSION, SYSTEM_HEIGHT)
+#: A start σ below this fraction of its mean marks a deterministic input (settings.DETERMINISTIC_CV = 1e-9) ...
+DETERMINISTIC_SCALE_CV = 1e-6
+#: ... whose free mean then moves in units of this fraction of its start value.
+DETERMINISTIC_MEAN_STEP = 0.01
 #: Objective value (−J) given to the optimisers where J = −inf.
 _PENALTY = 1e10
 
@@ -148,11 +155,16 @@ class ScaledProblem:
     def __post_init__(self):
         self.mu0 = np.array([s.mean for s in self.start])
         self.sd0 = np.array([s.sigma for s in self.start])
+        # A free mean moves in units of its start σ; a deterministic input (σ = 1e-9 μ, not
+        # random) whose mean is free moves in units of 1 % of it, or finite differences of J
+        # along it would be below rounding.
+        self.mean_scale = np.where(self.sd0 > DETERMINISTIC_SCALE_CV * self.mu0, self.sd0,
+                                   DETERMINISTIC_MEAN_STEP * self.mu0)
 
     def laws(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         nm = self.free_mean_idx.size
         means, sigmas = self.mu0.copy(), self.sd0.copy()
-        means[self.free_mean_idx] += self.sd0[self.free_mean_idx] * theta[:nm]
+        means[self.free_mean_idx] += self.mean_scale[self.free_mean_idx] * theta[:nm]
         sigmas[self.free_sigma_idx] *= np.exp(theta[nm:])
         return means, sigmas
 
@@ -164,6 +176,11 @@ class ScaledProblem:
         if self.recording:
             self.trace.append((theta, means, sigmas, value))
         return value
+
+    def log_densities(self, theta: np.ndarray) -> np.ndarray | None:
+        """``ln p_W(W_k; s(θ))`` per measured span (None where J is not finite); not traced."""
+        self.n_evaluations += 1
+        return self.likelihood.evaluate(*self.laws(np.asarray(theta, dtype=float))).log_density
 
     def objective(self, theta) -> float:
         value = self.j(theta)
@@ -182,8 +199,8 @@ class ScaledProblem:
         lo, hi = [], []
         for i in self.free_mean_idx:
             a, b = box.mean_bounds(self.start[i])
-            lo.append((a - self.mu0[i]) / self.sd0[i])
-            hi.append((b - self.mu0[i]) / self.sd0[i])
+            lo.append((a - self.mu0[i]) / self.mean_scale[i])
+            hi.append((b - self.mu0[i]) / self.mean_scale[i])
         for i in self.free_sigma_idx:
             a, b = box.sigma_bounds(self.start[i])
             lo.append(np.log(a / self.sd0[i]))
@@ -209,7 +226,10 @@ def observed_information(j, theta: np.ndarray, step: float) -> np.ndarray:
     return -h
 
 
-def _run_nelder_mead(problem, theta0, lo, hi, initial_step, max_evaluations, xtol, ftol):
+def run_nelder_mead(problem, theta0, lo, hi, initial_step, max_evaluations, xtol, ftol):
+    """SciPy's bounded adaptive Nelder–Mead on ``problem.objective`` from ``theta0``; the
+    initial simplex steps ``initial_step`` (a number or one per coordinate) inwards from the
+    bounds. Returns (converged, message)."""
     steps = np.where(theta0 + initial_step <= hi, initial_step, -initial_step)
     simplex = np.vstack([theta0, theta0 + np.diag(steps)])
     res = minimize(problem.objective, theta0, method="Nelder-Mead", bounds=list(zip(lo, hi)),
@@ -236,8 +256,9 @@ def _run_bobyqa(problem, theta0, lo, hi, initial_step, max_evaluations, xtol, ft
     return converged, message or ("converged" if converged else "evaluation budget reached")
 
 
-def _observed_covariance(problem, theta_opt, step):
-    """(−H)⁻¹ in θ (NaN if −H is not positive definite) and the number of J evaluations."""
+def observed_covariance(problem, theta_opt, step, interior):
+    """``problem.j``'s (−H)⁻¹ in θ over the ``interior`` coordinates (rows and columns of the others NaN; all NaN
+    if that block of −H is not positive definite) and the number of J evaluations."""
     counter = [0]
 
     def j_counted(theta):
@@ -246,10 +267,11 @@ def _observed_covariance(problem, theta_opt, step):
 
     info = observed_information(j_counted, theta_opt, step)
     cov = np.full(info.shape, np.nan)
-    if np.all(np.isfinite(info)):
+    block = info[np.ix_(interior, interior)]
+    if np.all(np.isfinite(block)):
         try:
-            np.linalg.cholesky(info)
-            cov = np.linalg.inv(info)
+            np.linalg.cholesky(block)
+            cov[np.ix_(interior, interior)] = np.linalg.inv(block)
         except np.linalg.LinAlgError:
             pass
     return cov, counter[0]
@@ -259,7 +281,8 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
              free_means: tuple[str, ...] = DEFAULT_FREE_MEANS, free_sigmas: tuple[str, ...] | None = None,
              method: str = "nelder-mead", box: ParameterBox = ParameterBox(), initial_step: float = 0.5,
              max_evaluations: int = 6000, xtol: float | None = None, ftol: float | None = None,
-             standard_errors: bool = True, hessian_step: float = 0.01) -> IdentificationResult:
+             standard_errors: bool = True, hessian_step: float = 0.01, mast_pairs: np.ndarray | None = None,
+             covariance: str = "observed_information") -> IdentificationResult:
     """Maximise J over the free hyper-parameters, from the laws ``start``.
 
     Parameters
@@ -289,6 +312,14 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
         Compute the observed-information standard errors (module docstring).
     hessian_step : float
         Finite-difference step in θ.
+    mast_pairs : numpy.ndarray of int, shape (P, 2), optional
+        Rows of the data that share a mast (:func:`.dependence.adjacent_span_pairs`; empty for
+        independent spans). Given, the sandwich covariance ``H⁻¹ K H⁻¹`` is computed too
+        (2p more evaluations of J).
+    covariance : {"observed_information", "sandwich"}
+        Where the standard errors come from: the observed information, or the observed
+        information with each variance widened by the sandwich where that is wider
+        (:func:`.dependence.widened_covariance`; needs ``mast_pairs``).
 
     Returns
     -------
@@ -296,6 +327,10 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
     """
     if method not in METHODS:
         raise ValueError(f"method: expected one of {METHODS}, got {method!r}")
+    if covariance not in COVARIANCES:
+        raise ValueError(f"covariance: expected one of {COVARIANCES}, got {covariance!r}")
+    if covariance == "sandwich" and mast_pairs is None:
+        raise ValueError("covariance='sandwich' needs mast_pairs (an empty array for independent spans)")
     if xtol is None:
         xtol = 1e-3 if method == "nelder-mead" else 1e-5
     if ftol is None:
@@ -309,7 +344,7 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
     lo, hi = problem.bounds(box)
     theta0 = np.clip(np.zeros(lo.size), lo, hi)
     t_start = time.perf_counter()
-    run = _run_nelder_mead if method == "nelder-mead" else _run_bobyqa
+    run = run_nelder_mead if method == "nelder-mead" else _run_bobyqa
     converged, message = run(problem, theta0, lo, hi, initial_step, max_evaluations, xtol, ftol)
     # s_opt: the best evaluated point (what both optimisers return, up to ties).
     trace = list(problem.trace)
@@ -317,14 +352,26 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
     best = int(np.argmax([t[3] for t in trace]))
     theta_opt, means_opt, sigmas_opt, j_opt = trace[best]
     problem.recording = False
-    cov, n_hess = (_observed_covariance(problem, theta_opt, hessian_step) if standard_errors
-                   else (np.full((theta_opt.size, theta_opt.size), np.nan), 0))
-    elapsed = time.perf_counter() - t_start
-    se = np.sqrt(np.diag(cov))
+    # A σ at the lower edge of the box (σ0/50: a spread W cannot resolve) sits on the boundary of
+    # the parameter space, where J is flat in it and −H singular: its standard error is not
+    # defined (the profile interval, which then reaches 0, is the one to read) and the others'
+    # come from the information of the interior coordinates.
     nm = problem.free_mean_idx.size
+    interior = np.ones(theta_opt.size, dtype=bool)
+    interior[nm:] = np.asarray(theta_opt)[nm:] > lo[nm:] + hessian_step
+    cov, n_hess = (observed_covariance(problem, theta_opt, hessian_step, interior) if standard_errors
+                   else (np.full((theta_opt.size, theta_opt.size), np.nan), 0))
+    sandwich = None
+    if standard_errors and mast_pairs is not None:
+        sandwich = robust_covariance(problem.log_densities, np.asarray(theta_opt, dtype=float), hessian_step, cov,
+                                     interior, mast_pairs)
+        n_hess += 2 * theta_opt.size
+    elapsed = time.perf_counter() - t_start
+    reported = widened_covariance(cov, sandwich) if covariance == "sandwich" and sandwich is not None else cov
+    se = np.sqrt(np.diag(reported))
     mu_se = np.zeros(len(start))
     sigma_se = np.zeros(len(start))
-    mu_se[problem.free_mean_idx] = problem.sd0[problem.free_mean_idx] * se[:nm]
+    mu_se[problem.free_mean_idx] = problem.mean_scale[problem.free_mean_idx] * se[:nm]
     sigma_se[problem.free_sigma_idx] = sigmas_opt[problem.free_sigma_idx] * se[nm:]
     free_mean_set = set(problem.free_mean_idx.tolist())
     estimates = tuple(ParameterEstimate(parameter=names[i], mu=float(means_opt[i]), sigma=float(sigmas_opt[i]),
@@ -338,4 +385,7 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
         trace_means=np.array([t[1] for t in trace]), trace_sigmas=np.array([t[2] for t in trace]),
         trace_j=np.array([t[3] for t in trace]), time_s=elapsed, method=method, converged=converged,
         message=message, free_parameters=free_names, theta_opt=np.asarray(theta_opt, dtype=float),
-        theta_covariance=cov, n_hessian_evaluations=n_hess, slack_fraction=float(slack))
+        theta_covariance=cov, n_hessian_evaluations=n_hess, slack_fraction=float(slack),
+        theta_covariance_sandwich=sandwich, covariance=covariance,
+        n_mast_pairs=0 if mast_pairs is None else int(np.asarray(mast_pairs).reshape(-1, 2).shape[0]),
+        at_lower_bound=tuple(n for n, inside in zip(free_names, interior) if not inside))

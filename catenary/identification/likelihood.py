@@ -194,6 +194,9 @@ class LikelihoodValue:
         ``"ok"``, ``"slack"``, ``"tension_out_of_bounds"`` or ``"singular"``.
     log_density : numpy.ndarray or None
         ``ln p_W(W_k; s)`` per measured span (K,), whose sum is J; None unless ``status == "ok"``.
+    fit : GaussianFit or None
+        Mean and covariance of the model sample (Gaussian estimator; None otherwise or unless
+        ``status == "ok"``).
     """
 
     j: float
@@ -201,6 +204,7 @@ class LikelihoodValue:
     n_effective: float
     status: str
     log_density: np.ndarray | None = None
+    fit: GaussianFit | None = None
 
 
 @dataclass(frozen=True)
@@ -235,6 +239,13 @@ class Likelihood:
         Kernel bandwidth rule (kernel estimator only).
     chunk_size : int
         Design rows mapped and evaluated at once.
+    sampler : callable, optional
+        Replaces the map from design rows to model W: ``sampler(z, means, sigmas, extra)``
+        returns ``(W, F_min)`` for the standard normal scores ``z`` of a block of the design, or
+        None when a sample falls outside the model's range (J = −inf); ``extra`` is what
+        :meth:`evaluate` was given (the diagnosis's effect magnitudes, :mod:`catenary.diagnosis`).
+        It states the design columns it reads as its ``dimension``. Default: the fast model of
+        the random inputs alone.
 
     Notes
     -----
@@ -245,11 +256,12 @@ class Likelihood:
     def __init__(self, model: FastSpanModel, design: UnitDesign, data_w_m: np.ndarray, *,
                  estimator: str = "gaussian", system_height_mode: str = "shared",
                  slack_taper_n: float = 2.0, max_slack_fraction: float = 0.5,
-                 bandwidth: str = "scott", chunk_size: int = 16384):
+                 bandwidth: str = "scott", chunk_size: int = 16384, sampler=None):
         n = model.n_droppers
-        if design.dimension != design_dimension(n, system_height_mode):
-            raise ValueError(f"design: expected {design_dimension(n, system_height_mode)} columns "
-                             f"(system_height_mode={system_height_mode!r}), got {design.dimension}")
+        expected = design_dimension(n, system_height_mode) if sampler is None else sampler.dimension
+        if design.dimension != expected:
+            raise ValueError(f"design: expected {expected} columns (system_height_mode={system_height_mode!r}"
+                             f"{', the sampler' if sampler is not None else ''}), got {design.dimension}")
         data = np.atleast_2d(np.asarray(data_w_m, dtype=float))
         if data.ndim != 2 or data.shape[1] != n or not np.all(np.isfinite(data)):
             raise ValueError(f"data_w_m: expected finite values of shape (K, {n}), got {data.shape}")
@@ -268,6 +280,7 @@ class Likelihood:
         self.max_slack_fraction = float(max_slack_fraction)
         self.bandwidth = bandwidth
         self.chunk_size = int(chunk_size)
+        self.sampler = sampler
         self._shift = data.mean(axis=0)
 
     @property
@@ -279,29 +292,39 @@ class Likelihood:
         return Likelihood(self.model, self.design, data_w_m, estimator=self.estimator,
                           system_height_mode=self.system_height_mode, slack_taper_n=self.slack_taper_n,
                           max_slack_fraction=self.max_slack_fraction, bandwidth=self.bandwidth,
-                          chunk_size=self.chunk_size)
+                          chunk_size=self.chunk_size, sampler=self.sampler)
 
-    def _weights(self, min_force: np.ndarray) -> np.ndarray:
+    def taper_weights(self, min_force: np.ndarray) -> np.ndarray:
+        """Weight of each model sample: Φ(F_min / τ), the slack taper (module docstring)."""
         if self.slack_taper_n == 0.0:
             return (min_force > 0.0).astype(float)
         return special.ndtr(min_force / self.slack_taper_n)
 
-    def _chunks(self, means, sigmas):
-        """Yield (W, weights, F_min) per block of the design, or None if T_MW is out of range."""
+    def _sample(self, z, means, sigmas, extra):
+        """(W, F_min) of the design rows ``z``, or None if T_MW is out of the model's range."""
+        if self.sampler is not None:
+            return self.sampler(z, means, sigmas, extra)
         lo, hi = self.model.messenger_tension_bounds_n
+        x = map_inputs(z, means, sigmas, self.system_height_mode)
+        t = x.messenger_tension_n
+        if t.min() < lo or t.max() > hi:
+            return None
+        res = self.model.evaluate(x.dropper_lengths_m, t, x.system_height_left_m,
+                                  x.system_height_right_m, chunk_size=self.chunk_size)
+        return res.w_m, res.dropper_force_n.min(axis=1)
+
+    def _chunks(self, means, sigmas, extra=None):
+        """Yield (W, weights, F_min) per block of the design, or None if T_MW is out of range."""
         z = self.design.z
         for start in range(0, z.shape[0], self.chunk_size):
-            x = map_inputs(z[start:start + self.chunk_size], means, sigmas, self.system_height_mode)
-            t = x.messenger_tension_n
-            if t.min() < lo or t.max() > hi:
+            out = self._sample(z[start:start + self.chunk_size], means, sigmas, extra)
+            if out is None:
                 yield None
                 return
-            res = self.model.evaluate(x.dropper_lengths_m, t, x.system_height_left_m,
-                                      x.system_height_right_m, chunk_size=self.chunk_size)
-            f_min = res.dropper_force_n.min(axis=1)
-            yield res.w_m, self._weights(f_min), f_min
+            w, f_min = out
+            yield w, self.taper_weights(f_min), f_min
 
-    def model_sample(self, means: np.ndarray, sigmas: np.ndarray) -> ModelSample:
+    def model_sample(self, means: np.ndarray, sigmas: np.ndarray, extra=None) -> ModelSample:
         """The whole model sample of W under the laws (means, sigmas).
 
         Raises
@@ -309,20 +332,21 @@ class Likelihood:
         OutOfModelRangeError
             If a T_MW sample lies outside the fast model's tension range.
         """
-        parts = list(self._chunks(means, sigmas))
+        parts = list(self._chunks(means, sigmas, extra))
         if parts and parts[-1] is None:
             raise OutOfModelRangeError("messenger_tension_n: samples outside the fast model's tension bounds "
                              f"{self.model.messenger_tension_bounds_n} N")
         w, weight, f_min = (np.concatenate(p) for p in zip(*parts))
         return ModelSample(w_m=w, weight=weight, min_dropper_force_n=f_min)
 
-    def evaluate(self, means: np.ndarray, sigmas: np.ndarray) -> LikelihoodValue:
-        """J and diagnostics at the laws (means, sigmas) (arrays in design order)."""
+    def evaluate(self, means: np.ndarray, sigmas: np.ndarray, extra=None) -> LikelihoodValue:
+        """J and diagnostics at the laws (means, sigmas) (arrays in design order); ``extra``
+        goes to the sampler."""
         means = np.asarray(means, dtype=float)
         sigmas = np.asarray(sigmas, dtype=float)
         if self.estimator == "kernel":
             try:
-                sample = self.model_sample(means, sigmas)
+                sample = self.model_sample(means, sigmas, extra)
             except OutOfModelRangeError:
                 return LikelihoodValue(-np.inf, np.nan, 0.0, "tension_out_of_bounds")
             slack = 1.0 - float(sample.weight.sum()) / self.n_samples
@@ -339,7 +363,7 @@ class Likelihood:
         sum_w = sum_w2 = 0.0
         s1 = np.zeros(n)
         s2 = np.zeros((n, n))
-        for part in self._chunks(means, sigmas):
+        for part in self._chunks(means, sigmas, extra):
             if part is None:
                 return LikelihoodValue(-np.inf, np.nan, 0.0, "tension_out_of_bounds")
             w, weight, _ = part
@@ -357,8 +381,8 @@ class Likelihood:
         except np.linalg.LinAlgError:
             return LikelihoodValue(-np.inf, slack, 0.0, "singular")
         logp = gaussian_log_density(self.data_w_m, fit)
-        return LikelihoodValue(float(np.sum(logp)), slack, fit.n_effective, "ok", logp)
+        return LikelihoodValue(float(np.sum(logp)), slack, fit.n_effective, "ok", logp, fit)
 
-    def __call__(self, means: np.ndarray, sigmas: np.ndarray) -> float:
+    def __call__(self, means: np.ndarray, sigmas: np.ndarray, extra=None) -> float:
         """J(s) (see :meth:`evaluate`)."""
-        return self.evaluate(means, sigmas).j
+        return self.evaluate(means, sigmas, extra).j

@@ -13,6 +13,10 @@ deterministic), warm-started on the profile path of the quadratic approximation
 ``θ_−i(t) = θ̂_−i + C_−i,i / C_ii (t − θ̂_i)``. The two ends are found by a secant iteration on
 the signed root ``r(t) = ±√(2 (J(s_opt) − P(t)))``, nearly linear in t, from the Wald end.
 
+Spans that share a mast: when the identification reports the sandwich-widened covariance
+(:mod:`.dependence`), the critical drop of coordinate i is ``max(λ_i, 1) χ²₁(1 − α)/2`` — the
+profile likelihood ratio of a composite likelihood is ``λ_i χ²₁``, not χ²₁.
+
 Boundary: σ cannot go below the box's lower edge (σ0/50, a spread that moves W by far less than
 the data resolve). If the profile is still inside the interval there, the σ interval reaches 0:
 the report says "consistent with no spread", with lower end 0. The interval then uses χ²₁ as
@@ -76,13 +80,14 @@ def _profile(problem: ScaledProblem, theta_opt, cov, i, t, lo, hi, max_evaluatio
     """P(t) and the maximising θ (the other coordinates re-optimised by bounded Nelder–Mead)."""
     others = np.flatnonzero(np.arange(theta_opt.size) != i)
     guess = theta_opt.copy()
-    if np.all(np.isfinite(cov)) and cov[i, i] > 0:
-        guess = theta_opt + cov[:, i] / cov[i, i] * (t - theta_opt[i])
+    if np.isfinite(cov[i, i]) and cov[i, i] > 0:
+        guess = theta_opt + np.nan_to_num(cov[:, i] / cov[i, i]) * (t - theta_opt[i])
     guess[i] = t
     guess = np.clip(guess, lo, hi)
     if others.size == 0:
         return problem.j(guess), guess
-    scale = np.sqrt(np.diag(cov))[others] if np.all(np.isfinite(cov)) else np.full(others.size, 0.3)
+    scale = np.sqrt(np.diag(cov))[others]
+    scale = np.where(np.isfinite(scale) & (scale > 0), scale, 0.3)       # 0.3: no curvature known
     step = np.clip(0.3 * scale, 1e-3, 0.5)
     x0 = guess[others]
     step = np.where(x0 + step <= hi[others], step, -step)
@@ -143,7 +148,9 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
     theta_opt = np.asarray(result.theta_opt, dtype=float)
     cov = np.asarray(result.theta_covariance, dtype=float)
     j_opt = float(result.j_opt)
-    critical = float(np.sqrt(stats.chi2.ppf(level, 1)))          # 1.96 on the signed-root scale
+    # 1.96 on the signed-root scale; × √max(λ_i, 1) for spans sharing masts (.dependence).
+    critical_base = float(np.sqrt(stats.chi2.ppf(level, 1)))
+    inflation = result.variance_widening
     nm = problem.free_mean_idx.size
     out = []
     for i, coordinate in enumerate(result.free_parameters):
@@ -156,6 +163,7 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
             value, _ = _profile(problem, theta_opt, cov, i, t, lo, hi, max_evaluations)
             return np.sqrt(2.0 * max(j_opt - value, 0.0))
 
+        critical = critical_base * float(np.sqrt(inflation[i]))
         se = float(np.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) and cov[i, i] > 0 else 0.5
         ends, at_edge = [], []
         for side in (-1.0, 1.0):
@@ -187,7 +195,7 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
             at_edge.append(False)
         if i < nm:
             k = problem.free_mean_idx[i]
-            values = [problem.mu0[k] + problem.sd0[k] * t for t in (theta_opt[i], *ends)]
+            values = [problem.mu0[k] + problem.mean_scale[k] * t for t in (theta_opt[i], *ends)]
             statistic = "mu"
         else:
             k = problem.free_sigma_idx[i - nm]

@@ -1,4 +1,4 @@
-"""One span type's identification run and its outputs (SPEC §6; paper §3–§4.2, Table 2, Figs 7, 10).
+"""One span type's identification run and its outputs (paper §3–§4.2, Table 2, Figs 7, 10).
 
 :func:`run_identification` does everything the rule needs from the measured deflections W and
 the settings: J(s) on a fixed design, s_opt by maximum likelihood with standard errors, the
@@ -29,6 +29,7 @@ from ..fast import FastSpanModel
 from ..normality import henze_zirkler
 from ..parquet import read_table
 from .band import DeflectionBand, band_abscissae, deflection_band
+from .dependence import adjacent_span_pairs, variance_inflation
 from .design import MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, design_dimension, draw_unit_design
 from .fit import identify, make_likelihood
 from .likelihood import Likelihood, ModelSample, fit_gaussian, kernel_bandwidth
@@ -41,9 +42,11 @@ __all__ = ["CorrectedData", "IdentificationRun", "MarginalDensities", "S_OPT_COL
            "markdown_report", "normality_report", "read_corrected", "run_identification", "s_opt_table",
            "trace_schema", "trace_table"]
 
-S_OPT_COLUMNS = ("parameter", "mu", "sigma", "mu_se", "sigma_se", "mu_fixed", "mu_profile_low", "mu_profile_high",
-                 "sigma_profile_low", "sigma_profile_high", "no_spread_detected", "converged", "status")
+S_OPT_COLUMNS = ("parameter", "mu", "sigma", "mu_se", "sigma_se", "mu_variance_widening", "sigma_variance_widening",
+                 "mu_fixed", "mu_profile_low", "mu_profile_high", "sigma_profile_low", "sigma_profile_high",
+                 "no_spread_detected", "converged", "status")
 _REQUIRED = ("span_id", "converged")
+_ADJACENCY = ("section_id", "start_chainage_m", "end_chainage_m")
 _LOG = logging.getLogger(__name__)
 
 
@@ -58,11 +61,15 @@ class CorrectedData:
     span_id : numpy.ndarray of str, shape (K,)
     left_out : list of (str, str)
         ``(span_id, reason)`` of every row not used.
+    mast_pairs : numpy.ndarray of int, shape (P, 2), or None
+        Rows of ``w_m`` that share a mast (:func:`.dependence.adjacent_span_pairs`); None when
+        the file does not say (no ``section_id``, ``start_chainage_m``, ``end_chainage_m``).
     """
 
     w_m: np.ndarray
     span_id: np.ndarray
     left_out: list[tuple[str, str]]
+    mast_pairs: np.ndarray | None = None
 
 
 def read_corrected(path: str | Path, span_type: SpanType) -> CorrectedData:
@@ -71,8 +78,10 @@ def read_corrected(path: str | Path, span_type: SpanType) -> CorrectedData:
     Parameters
     ----------
     path : str or pathlib.Path
-        Output of the correction rule: ``span_id``, ``w1_m`` … ``wn_m`` [m], ``converged``
-        (other columns, e.g. ``gap_norm_m`` and ``iterations``, are only reported).
+        Output of the correction rule: ``span_id``, ``w1_m`` … ``wn_m`` [m], ``converged``;
+        ``section_id``, ``start_chainage_m`` and ``end_chainage_m`` [m], when present, say which
+        spans share a mast (other columns, e.g. ``gap_norm_m`` and ``iterations``, are only
+        reported).
     span_type : SpanType
         Gives n, the number of ``w*_m`` columns expected.
 
@@ -109,7 +118,12 @@ def read_corrected(path: str | Path, span_type: SpanType) -> CorrectedData:
                 why += f" after {int(df['iterations'].iloc[i])} iterations"
             why += ")"
         left_out.append((str(df["span_id"].iloc[i]), why))
-    return CorrectedData(w_m=w[converged], span_id=df["span_id"].to_numpy(dtype=str)[converged], left_out=left_out)
+    pairs = None
+    if all(c in df.columns for c in _ADJACENCY):
+        used = df[converged]
+        pairs = adjacent_span_pairs(used["section_id"], used["start_chainage_m"], used["end_chainage_m"])
+    return CorrectedData(w_m=w[converged], span_id=df["span_id"].to_numpy(dtype=str)[converged], left_out=left_out,
+                         mast_pairs=pairs)
 
 
 @dataclass(frozen=True)
@@ -305,7 +319,7 @@ class IdentificationRun:
 
 def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray,
                        settings: IdentificationSettings, *, left_out: list[tuple[str, str]] | None = None,
-                       log: logging.Logger | None = None) -> IdentificationRun:
+                       mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None) -> IdentificationRun:
     """Identify the input laws of ``span_type`` from measured deflections and build every output.
 
     Parameters
@@ -317,6 +331,9 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     settings : IdentificationSettings
     left_out : list of (str, str), optional
         Spans left out upstream, carried into the report.
+    mast_pairs : numpy.ndarray of int, shape (P, 2), optional
+        Rows of ``data_w_m`` that share a mast (:attr:`CorrectedData.mast_pairs`). Without them
+        the standard errors are the observed information's whatever ``settings.standard_errors``.
     log : logging.Logger, optional
         Progress messages (default: this module's logger).
 
@@ -347,12 +364,24 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     log.info("%s: %d spans, J(s0) = %.3f (N = %d, %s, %s estimator, seed %d)", span_type.name, data.shape[0],
              j_start, s.n_samples, s.design, s.estimator, s.seed)
     random = s.random_names(n)
+    covariance = s.standard_errors if mast_pairs is not None else "observed_information"
+    if s.standard_errors == "sandwich" and mast_pairs is None:
+        log.warning("%s: the data do not say which spans share a mast (no section_id, start_chainage_m, "
+                    "end_chainage_m): standard errors from the observed information, spans independent",
+                    span_type.name)
     result = identify(lik, start, free_means=s.free_mean_names(n), free_sigmas=random, method=s.method,
                       initial_step=s.initial_step, max_evaluations=s.max_evaluations, xtol=s.xtol, ftol=s.ftol,
-                      hessian_step=s.hessian_step)
+                      hessian_step=s.hessian_step, mast_pairs=mast_pairs if covariance == "sandwich" else None,
+                      covariance=covariance)
     log.info("%s: %s %s after %d evaluations (+%d for the Hessian) in %.1f s: J(s_opt) = %.3f (%s)",
              span_type.name, s.method, "converged" if result.converged else "did NOT converge",
              result.n_evaluations, result.n_hessian_evaluations, result.time_s, result.j_opt, result.message)
+    if result.covariance == "sandwich":
+        log.info("%s: %d pairs of spans share a mast; sandwich variance factors λ (widened where > 1): %s",
+                 span_type.name, result.n_mast_pairs,
+                 ", ".join(f"{p} {v:.2f}" for p, v in zip(result.free_parameters,
+                                                          variance_inflation(result.theta_covariance,
+                                                                             result.theta_covariance_sandwich))))
     if not result.converged:
         what = (f"span type {span_type.name}: the {s.method} optimiser did not converge after "
                 f"{result.n_evaluations} evaluations ({result.message})")
@@ -413,13 +442,19 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
 def s_opt_table(result: IdentificationResult, profiles: list[ProfileInterval] = ()) -> pd.DataFrame:
     """s_opt with standard errors: columns ``parameter``, ``mu``, ``sigma``, ``mu_se``, ``sigma_se``,
     ``mu_fixed`` (SI, in the unit of each parameter's name; se 0 where not identified, NaN where
-    the information is singular), the profile-likelihood interval ends ``mu_profile_low`` …
+    the information is singular), ``mu_variance_widening`` and ``sigma_variance_widening`` (the
+    factor ``max(λ, 1)`` by which the sandwich over spans sharing a mast widened the variance:
+    1 for the observed information alone, NaN where not identified), the profile-likelihood
+    interval ends ``mu_profile_low`` …
     ``sigma_profile_high`` (NaN where not profiled; ``sigma_profile_low`` = 0 when the interval
     reaches no spread), ``no_spread_detected`` (the σ interval reaches 0), ``converged`` and
     ``status`` (:attr:`.result.IdentificationResult.status`, the same on every row)."""
     rows = result.table_rows()
     by_key = {(p.parameter, p.statistic): p for p in profiles}
+    widening = dict(zip(result.free_parameters, result.variance_widening))
     for row in rows:
+        for statistic in ("mu", "sigma"):
+            row[f"{statistic}_variance_widening"] = widening.get(f"{row['parameter']}.{statistic}", np.nan)
         for statistic in ("mu", "sigma"):
             p = by_key.get((row["parameter"], statistic))
             row[f"{statistic}_profile_low"] = p.low if p else np.nan
@@ -493,7 +528,7 @@ def markdown_report(run: IdentificationRun, *, source: str = "corrected.parquet"
                "the observed information is not positive definite at s_opt: no standard errors")
         lines += [f"> **Status: {r.status}** — {why}. Do not use these laws as identified.", ""]
     lines += [f"Maximum likelihood of the measured static deflections W under independent Gamma inputs "
-              f"(paper §3, SPEC §6). Data: {run.data_w_m.shape[0]} spans from `{source}` (converged "
+              f"(paper §3). Data: {run.data_w_m.shape[0]} spans from `{source}` (converged "
               f"correction); {len(run.left_out)} left out.", ""]
     for span_id, why in run.left_out:
         lines.append(f"- left out {span_id}: {why}")
@@ -560,8 +595,27 @@ def markdown_report(run: IdentificationRun, *, source: str = "corrected.parquet"
     lines += ["Standard errors: observed information — the Hessian H of J in the optimiser's coordinates θ "
               f"(μ = μ0 + σ0 θ_μ, σ = σ0 exp θ_σ) by central finite differences at s_opt (step {s.hessian_step}), "
               "covariance (−H)⁻¹, delta method back to μ and σ (the profile-likelihood intervals are above). "
-              "They are conditional on the design (the Monte Carlo error of a finite N is not included), treat the spans as "
-              "independent, and are blank (–) where −H is not positive definite.", ""]
+              "They are conditional on the design (the Monte Carlo error of a finite N is not included) and are "
+              "blank (–) where −H is not positive definite.", ""]
+    if r.at_lower_bound:
+        names = ", ".join(f"{_label(p.rsplit('.', 1)[0])[0]} σ" for p in r.at_lower_bound)
+        lines += [f"{names}: at the lower edge of the admissible box (σ0/50, a spread W cannot resolve), on the "
+                  "boundary of the parameter space where J is flat: no standard error (–); the profile interval "
+                  "is the one to read. The other standard errors come from the information of the other "
+                  "parameters.", ""]
+    if r.covariance == "sandwich" and r.sandwich_available:
+        widening = dict(zip(r.free_parameters, r.variance_widening))
+        widened = [f"{_label(p.rsplit('.', 1)[0])[0]} {'μ' if p.endswith('.mu') else 'σ'} ×{w:.2f}"
+                   for p, w in widening.items() if w > 1.0]
+        lines += ["Spans that share a mast are not independent: every variance above is the observed "
+                  "information's widened by the sandwich H⁻¹KH⁻¹ (K from the per-span scores, with the cross "
+                  "terms of the " + f"{r.n_mast_pairs} pairs of spans sharing a mast) where that is wider; the "
+                  "profile intervals' critical drop is widened by the same factor. Variance factors: "
+                  + (", ".join(widened) if widened else "none above 1") + " (`*_variance_widening` in `s_opt.csv`).", ""]
+    else:
+        lines += ["The spans are treated as independent (observed information alone"
+                  + (": the data do not say which spans share a mast)." if s.standard_errors == "sandwich" else
+                     ", `identification.standard_errors: observed_information`).") , ""]
     lines += ["## Normality of W (Henze–Zirkler)", "",
               f"Model samples: i.i.d. Monte Carlo draws of taut spans (seed {s.seed + 3}), not the design of J "
               "(a Sobol design is too even for the test's null law and would always pass).", "",

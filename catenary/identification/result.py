@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import special
 
+from .dependence import widened_covariance, widening
 from .design import RandomInput
 
 __all__ = ["STATUSES", "IdentificationResult", "ParameterEstimate"]
@@ -55,6 +56,18 @@ class IdentificationResult:
     theta_covariance : numpy.ndarray
         ``(−H)⁻¹`` in θ (NaN if −H is not positive definite or not computed).
     n_hessian_evaluations : int
+    theta_covariance_sandwich : numpy.ndarray
+        ``H⁻¹ K H⁻¹`` in θ, robust to spans that share a mast (:mod:`.dependence`); NaN where
+        not computed (no span adjacency given).
+    covariance : {"observed_information", "sandwich"}
+        Where the standard errors of ``estimates`` come from: the observed information alone, or
+        the observed information widened by the sandwich (:func:`.dependence.widened_covariance`).
+    n_mast_pairs : int
+        Pairs of measured spans sharing a mast in the sandwich (0 when not computed).
+    at_lower_bound : tuple of str
+        Free σ coordinates (``"<input>.sigma"``) whose estimate sits at the lower edge of the
+        admissible box (σ0/50): on the boundary, without a standard error (NaN); their profile
+        interval reaches 0.
     slack_fraction : float
         Slack fraction of the model sample at s_opt.
     """
@@ -74,11 +87,47 @@ class IdentificationResult:
     theta_covariance: np.ndarray
     n_hessian_evaluations: int
     slack_fraction: float
+    theta_covariance_sandwich: np.ndarray | None = None
+    covariance: str = "observed_information"
+    n_mast_pairs: int = 0
+    at_lower_bound: tuple[str, ...] = ()
+
+    @property
+    def reported_covariance(self) -> np.ndarray:
+        """The covariance in θ that the standard errors come from (``covariance``)."""
+        if self.covariance == "sandwich" and self.theta_covariance_sandwich is not None:
+            return widened_covariance(self.theta_covariance, self.theta_covariance_sandwich)
+        return self.theta_covariance
+
+    @property
+    def variance_widening(self) -> np.ndarray:
+        """Factor on each θ variance (and on the profile's critical drop): ``max(λ_i, 1)`` for
+        ``covariance="sandwich"``, else 1."""
+        if self.covariance == "sandwich" and self.sandwich_available:
+            return widening(self.theta_covariance, self.theta_covariance_sandwich)
+        return np.ones(np.asarray(self.theta_opt).size)
 
     @property
     def standard_errors_available(self) -> bool:
-        """True when the observed information was positive definite (finite standard errors)."""
-        return bool(np.all(np.isfinite(self.theta_covariance)))
+        """True when the observed information of the interior coordinates (all but those
+        ``at_lower_bound``) was positive definite and the reported covariance is finite there."""
+        inside = self.interior
+        block = np.ix_(inside, inside)
+        return bool(np.all(np.isfinite(self.theta_covariance[block]))
+                    and np.all(np.isfinite(self.reported_covariance[block])))
+
+    @property
+    def interior(self) -> np.ndarray:
+        """Mask of the free coordinates that are not ``at_lower_bound``."""
+        return np.array([p not in self.at_lower_bound for p in self.free_parameters], dtype=bool)
+
+    @property
+    def sandwich_available(self) -> bool:
+        """True when the mast-sharing sandwich covariance was computed and is finite (over the
+        interior coordinates)."""
+        c = self.theta_covariance_sandwich
+        inside = self.interior
+        return c is not None and bool(np.all(np.isfinite(c[np.ix_(inside, inside)])))
 
     @property
     def status(self) -> str:

@@ -32,7 +32,7 @@ from ..errors import ConfigError
 from ..schema import check
 from .design import MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, dropper_names
 
-__all__ = ["DETERMINISTIC_CV", "DROPPER_GROUP", "IdentificationSettings"]
+__all__ = ["DETERMINISTIC_CV", "DROPPER_GROUP", "IdentificationSettings", "merged_mapping"]
 
 #: Group name standing for every dropper length in ``random_inputs`` and ``free_means``.
 DROPPER_GROUP = "dropper_lengths_m"
@@ -40,14 +40,14 @@ DROPPER_GROUP = "dropper_lengths_m"
 DETERMINISTIC_CV = 1e-9
 
 
-def _merged(base: Mapping, over: Mapping | None) -> dict:
+def merged_mapping(base: Mapping, over: Mapping | None) -> dict:
     """``base`` with ``over`` laid on it, nested mappings merged key by key (unknown keys kept,
     so that the schema reports them)."""
     out = dict(base)
     if not isinstance(over, Mapping):
         return over if over is not None else out
     for key, value in over.items():
-        out[key] = _merged(base[key], value) if isinstance(base.get(key), Mapping) and isinstance(value, Mapping) \
+        out[key] = merged_mapping(base[key], value) if isinstance(base.get(key), Mapping) and isinstance(value, Mapping) \
             else value
     return out
 
@@ -80,6 +80,11 @@ class IdentificationSettings:
         Model of one span: 0, the paper's single span pinned at its masts; k > 0, the span as the
         central one of 2k + 1 identical spans, both wires continuous over its masts, neighbours
         at the nominal table (:class:`catenary.fast.FastSpanModel`).
+    standard_errors : {"sandwich", "observed_information"}
+        ``"sandwich"``: the observed information with each variance widened by the sandwich over
+        spans that share a mast where that is wider (:mod:`.dependence`; used when the data say
+        which spans share a mast, else the observed information alone); ``"observed_information"``:
+        spans independent (the paper's).
     on_non_convergence : {"fail", "mark"}
         When the optimiser stops without converging: ``"fail"`` raises
         :class:`~catenary.errors.ConvergenceError` (the rule fails, no output); ``"mark"`` writes
@@ -132,6 +137,7 @@ class IdentificationSettings:
     system_height_sigma_m: float = 0.005
     system_height_mode: str = "independent"
     neighbours: int = 1
+    standard_errors: str = "sandwich"
     on_non_convergence: str = "fail"
     n_samples: int = 10_000
     design: str = "sobol"
@@ -144,7 +150,7 @@ class IdentificationSettings:
     xtol: float | None = None
     ftol: float | None = None
     hessian_step: float = 0.01
-    profile_parameters: tuple[str, ...] = (MESSENGER_TENSION, SYSTEM_HEIGHT)
+    profile_parameters: tuple[str, ...] = (DROPPER_GROUP, MESSENGER_TENSION, SYSTEM_HEIGHT)
     profile_level: float = 0.95
     profile_max_evaluations: int = 300
     estimators_n_samples: tuple[int, ...] = (1_000, 10_000, 100_000)
@@ -172,7 +178,7 @@ class IdentificationSettings:
             On an unknown key or a bad value (checked against the config schema); the message
             names the key.
         """
-        raw = _merged(cls().as_mapping(), mapping)
+        raw = merged_mapping(cls().as_mapping(), mapping)
         check(raw, "config", "identification", where=where)
         start, optimiser = raw["start"], raw["optimiser"]
 
@@ -187,7 +193,7 @@ class IdentificationSettings:
             messenger_tension_sigma_n=start[MESSENGER_TENSION]["sigma"],
             system_height_mean_m=start[SYSTEM_HEIGHT]["mean"], system_height_sigma_m=start[SYSTEM_HEIGHT]["sigma"],
             system_height_mode=raw["system_height_mode"], neighbours=raw["neighbours"],
-            on_non_convergence=raw["on_non_convergence"],
+            standard_errors=raw["standard_errors"], on_non_convergence=raw["on_non_convergence"],
             n_samples=raw["n_samples"], design=raw["design"], estimator=raw["estimator"],
             bandwidth=raw["bandwidth"], seed=raw["seed"], **optimiser,
             profile_parameters=tuple(raw["profile_intervals"]["parameters"]),
@@ -209,7 +215,7 @@ class IdentificationSettings:
                                           "sigma": self.messenger_tension_sigma_n},
                       SYSTEM_HEIGHT: {"mean": self.system_height_mean_m, "sigma": self.system_height_sigma_m}},
             "system_height_mode": self.system_height_mode, "neighbours": self.neighbours,
-            "on_non_convergence": self.on_non_convergence,
+            "standard_errors": self.standard_errors, "on_non_convergence": self.on_non_convergence,
             "n_samples": self.n_samples, "design": self.design, "estimator": self.estimator,
             "bandwidth": self.bandwidth, "seed": self.seed,
             "optimiser": {"method": self.method, "max_evaluations": self.max_evaluations,

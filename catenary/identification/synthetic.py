@@ -1,19 +1,32 @@
-"""Synthetic measured deflections: spans drawn from known Gamma laws through the fast model.
+"""Synthetic measured deflections with a known truth, for checks of the identification.
 
-Used to check the identification on data whose truth is known (paper Table 2 laws). The draw is
-plain Monte Carlo with NumPy's Gamma generator — independent of the design and of the inverse
-CDFs used by J — and spans with a slack dropper are redrawn, matching the likelihood's model of
-W given every dropper taut.
+* :func:`simulate_deflections` — independent spans drawn from known Gamma laws through the fast
+  model (the identification's own model: no model-form error). The draw is plain Monte Carlo
+  with NumPy's Gamma generator — independent of the design and of the inverse CDFs used by J —
+  and spans with a slack dropper are redrawn, matching the likelihood's model of W given every
+  dropper taut.
+* :func:`line_deflections` — a whole line drawn from a campaign truth specification and solved
+  statically section by section, as the campaign does it (wires continuous over the masts, a
+  mast's ΔH shared by its two spans, random neighbours): W as a perfect correction would hand
+  it over, with the pairs of spans that share a mast.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+import dataclasses
+
+import pandas as pd
+
+from ..campaign import static_truth
+from ..config import Catenary
 from ..errors import NoTautSolutionError
 from ..fast import FastSpanModel
+from ..truth import TruthSpec, draw_line
+from .dependence import adjacent_span_pairs
 
-__all__ = ["MAX_DRAWS_PER_SPAN", "simulate_deflections"]
+__all__ = ["MAX_DRAWS_PER_SPAN", "LineDeflections", "line_deflections", "simulate_deflections"]
 
 #: Draws allowed per requested span before giving up (a taut fraction below 1/1000).
 MAX_DRAWS_PER_SPAN = 1000
@@ -69,3 +82,47 @@ def simulate_deflections(model: FastSpanModel, means: np.ndarray, sigmas: np.nda
         out.append(taut)
         n_found += taut.shape[0]
     return np.concatenate(out)[:n_spans]
+
+
+@dataclasses.dataclass(frozen=True)
+class LineDeflections:
+    """Static W of one span type's spans in a drawn line.
+
+    Attributes
+    ----------
+    w_m : numpy.ndarray, shape (K, n)
+        Static CW deflection from the chord at the droppers [m].
+    mast_pairs : numpy.ndarray of int, shape (P, 2)
+        Rows of ``w_m`` that share a mast.
+    truth : pandas.DataFrame
+        The truth rows of those spans (:func:`catenary.campaign.static_truth`), for
+        :func:`catenary.campaign.realized_truth`.
+    """
+
+    w_m: np.ndarray
+    mast_pairs: np.ndarray
+    truth: pd.DataFrame
+
+
+def line_deflections(spec: TruthSpec, catenary: Catenary, span_type: str, *, seed: int) -> LineDeflections:
+    """Draw the line of ``spec`` with ``seed`` and solve it statically (module docstring).
+
+    Parameters
+    ----------
+    spec : TruthSpec
+        Campaign truth specification (laws, sections, hidden effects); its own seed is replaced.
+    catenary : Catenary
+    span_type : str
+        The span type whose spans are returned.
+    seed : int
+        Seed of the line's draw.
+    """
+    line = draw_line(dataclasses.replace(spec, seed=int(seed)), catenary)
+    truth = static_truth(line, catenary)
+    truth = truth[truth["span_type"] == span_type].reset_index(drop=True)
+    if truth.empty:
+        raise ValueError(f"span type {span_type!r}: no span of that type in the truth specification")
+    n = catenary.span_type(span_type).n_droppers
+    w = truth[[f"static_w{i + 1}_m" for i in range(n)]].to_numpy(dtype=float)
+    pairs = adjacent_span_pairs(truth["section_id"], truth["start_chainage_m"], truth["end_chainage_m"])
+    return LineDeflections(w_m=w, mast_pairs=pairs, truth=truth)

@@ -96,3 +96,41 @@ def correction_outputs():
     if config["recording"].startswith(f"{RESULTS}/campaign/"):
         outputs.append(f"{RESULTS}/validation/correction_check.csv")
     return outputs
+
+
+def diagnosis_outputs():
+    """Outputs of rule diagnose (workflow/rules/diagnosis.smk) per span type, and the check
+    against the hidden effects on campaign runs."""
+    outputs = expand(
+        [
+            f"{RESULTS}/{{span_type}}/diagnosis/{name}"
+            for name in ("findings.csv", "candidates.csv", "steps.json", "residuals.png", "eigenvalues.png",
+                         "mahalanobis_qq.png", "score_screen.png", "summary.md")
+        ],
+        span_type=SPAN_TYPES,
+    )
+    if config["recording"].startswith(f"{RESULTS}/campaign/"):
+        outputs.append(f"{RESULTS}/validation/diagnosis_check.csv")
+    return outputs
+
+
+def contact_force_batches(span_type):
+    """Batch files of the contact-force study of one span type (every case, every batch)."""
+    from catenary.contact_force.settings import ContactForceSettings, n_batches
+
+    settings = ContactForceSettings.from_mapping(config["contact_force"])
+    n_droppers = len(CATENARY["span_types"][span_type]["dropper_positions_m"])
+    return [f"{RESULTS}/{span_type}/contact_force/batches/{case}_{b}.parquet"
+            for case in settings.cases() for b in range(n_batches(settings, case, n_droppers))]
+
+
+def contact_force_outputs():
+    """Outputs of rule contact_force (workflow/rules/contact_force.smk) per span type."""
+    return expand(
+        [
+            f"{RESULTS}/{{span_type}}/contact_force/{name}"
+            for name in ("replicates.parquet", "summary.csv", "nominal.csv", "tolerance.csv", "sensitivity.csv",
+                         "histograms.png", "sobol.png", "tolerance.png", "report.md")
+        ],
+        span_type=SPAN_TYPES,
+    )

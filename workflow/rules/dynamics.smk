@@ -1,5 +1,5 @@
 rule dynamics:
-    """High-speed runs over a section of the span type; EN 50318-style statistics (SPEC §4.4)."""
+    """High-speed runs over a section of the span type; EN 50318-style statistics."""
     input:
         catenary=config["catenary"],
         pantographs=config["pantographs"],

@@ -2,7 +2,7 @@
 
 
 rule identify:
-    """Stochastic identification of one span type (SPEC §6, paper §3–4.2): s_opt with standard
+    """Stochastic identification of one span type (paper §3–4.2): s_opt with standard
     errors, the J trace, Gaussian vs kernel estimates (Fig. 7), Henze–Zirkler tests, the 98 %
     band of the CW deflection (Fig. 10) and a report."""
     input:

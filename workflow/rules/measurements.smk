@@ -1,5 +1,5 @@
 rule campaign_section:
-    """Simulate the recording car over one section of the campaign's truth (SPEC §5.2)."""
+    """Simulate the recording car over one section of the campaign's truth."""
     input:
         campaign=config["campaign"],
         catenary=config["catenary"],
@@ -36,7 +36,7 @@ rule campaign:
 
 
 rule ingest:
-    """Check the recording and masts files (SPEC §5.1) and store them as Parquet."""
+    """Check the recording and masts files and store them as Parquet."""
     input:
         recording=config["recording"],
         masts=config["masts"],

@@ -1,5 +1,5 @@
 rule dropper_table:
-    """Nominal dropper table of a span type from its presag profile (SPEC §4.2)."""
+    """Nominal dropper table of a span type from its presag profile."""
     input:
         catenary=config["catenary"],
     output:

@@ -1,0 +1,45 @@
+"""Contact-force replicates: wall time of one random 10-span N2 section run at 300 km/h.
+
+The section is drawn from spreads of the paper's Table 2 order (droppers 5 mm, T_MW 818 N,
+ΔH 6.5 mm) by the sampler the rule uses, assembled, and run by the reference 2-mass pantograph
+from the first mast to the last (`catenary.contact_force.runs.run_section`), statistics over
+spans 4–7. The first replicate (compiling and loading the kernel) is not counted. The default
+rule's own wall time is in its log (`results/logs/contact_force_batch/…`).
+"""
+
+from record import ROOT, record  # noqa: I001  (sets one BLAS thread first)
+
+import dataclasses
+import time
+
+from catenary.config import load_catenary
+from catenary.contact_force.draws import draw_section, replicate_seeds
+from catenary.contact_force.laws import design_laws
+from catenary.contact_force.runs import run_section
+from catenary.contact_force.settings import ContactForceSettings
+from catenary.pantograph import load_pantographs
+
+REPLICATES = 4
+
+
+def main() -> None:
+    catenary = load_catenary(ROOT / "config" / "catenary.yaml")
+    n2 = catenary.span_type("N2")
+    pantograph = load_pantographs(ROOT / "config" / "pantographs.yaml")["reference_2mass"]
+    settings = ContactForceSettings.from_mapping({"n_spans": 10, "analysis_masts": [3, 7], "speeds_kmh": [300.0]})
+    laws = dataclasses.replace(design_laws(n2, catenary).with_spreads(dropper_sigma_m=0.005,
+                                                                      messenger_tension_sigma_n=818.0),
+                               system_height_sigma_m=0.0065)
+    times = []
+    for r in range(REPLICATES + 1):
+        t0 = time.perf_counter()
+        section, _ = draw_section(laws, n2, catenary, settings.n_spans, replicate_seeds(settings.seed, r, laws))
+        _, rows = run_section(section, catenary, pantograph, settings, (300.0,))
+        times.append(time.perf_counter() - t0)
+    per_replicate = sorted(times[1:])[len(times[1:]) // 2]
+    print(f"one 10-span section at 300 km/h: {per_replicate:.2f} s (median of {REPLICATES}; first {times[0]:.2f} s)")
+    record({"contact_force_replicate_10span_300kmh_s": per_replicate})
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,87 @@
+"""``make validate``: campaigns of known truth through the whole pipeline, and their tables.
+
+Not run by ``make bench``. For the default campaign and every campaign under
+``config/validation/`` (an overlay ``<name>.yaml`` of ``config/config.yaml`` and its truth
+``<name>_campaign.yaml``): campaign → ingestion → projection → correction → identification
+(``v*``, the identification validation of the README) and diagnosis (every campaign) through
+Snakemake, then
+
+* the identification on each ``v*`` truth's static W (``identification_truth_check.py``),
+* the remaining model-form differences (``model_form_check.py``),
+* the README's validation table (``validation_table.py``),
+* ``results/validation/diagnosis.csv``: every campaign's diagnosis against its hidden effects
+  (campaign, planted, named, verdict, magnitude planted, realized and identified ± se).
+
+Wall times go to ``results/benchmarks.json`` (``validate_wall_time_s`` and one per campaign).
+Usage: ``python benchmarks/validate.py [--cores N] [campaign ...]`` (default: all).
+"""
+
+from record import ROOT, record  # noqa: I001  (sets one BLAS thread first)
+
+import argparse
+import subprocess
+import sys
+import time
+
+import pandas as pd
+
+IDENTIFICATION = ("v1_wide", "v2_null", "v3_n3")
+
+
+def campaigns() -> list[str]:
+    names = sorted(p.stem for p in (ROOT / "config" / "validation").glob("*.yaml") if not p.stem.endswith("_campaign"))
+    return ["default", *names]
+
+
+def targets(name: str) -> list[str]:
+    folder = "results" if name == "default" else f"results/validate/{name}"
+    out = [f"{folder}/validation/diagnosis_check.csv", f"{folder}/validation/correction_check.csv"]
+    if name == "default" or name in IDENTIFICATION:
+        out.append(f"{folder}/validation/identification_check.csv")
+    return out
+
+
+def run(cmd: list[str]) -> None:
+    print("+", " ".join(cmd), flush=True)
+    subprocess.run(cmd, cwd=ROOT, check=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cores", type=int, default=2)
+    parser.add_argument("names", nargs="*")
+    args = parser.parse_args()
+    names = args.names or campaigns()
+    bin_dir = ROOT / ".venv" / "bin"
+    snakemake = str(bin_dir / "snakemake") if (bin_dir / "snakemake").exists() else "snakemake"
+    t0 = time.perf_counter()
+    times = {}
+    for name in names:
+        start = time.perf_counter()
+        overlay = [] if name == "default" else [f"config/validation/{name}.yaml"]
+        run([snakemake, "--cores", str(args.cores), "--rerun-incomplete", "--configfile", "config/config.yaml",
+             *overlay, "--", *targets(name)])
+        if name == "default" or name in IDENTIFICATION:
+            truth = "results/campaign/truth.parquet" if name == "default" else f"results/validate/{name}/campaign/truth.parquet"
+            run([sys.executable, "benchmarks/identification_truth_check.py", truth])
+        times[f"validate_{name}_s"] = time.perf_counter() - start
+    if not args.names:
+        run([sys.executable, "benchmarks/model_form_check.py"])
+        run([sys.executable, "benchmarks/validation_table.py"])
+    rows = []
+    for name in names:
+        folder = ROOT / ("results" if name == "default" else f"results/validate/{name}")
+        rows.append(pd.read_csv(folder / "validation" / "diagnosis_check.csv"))
+    table = pd.concat(rows, ignore_index=True)
+    out = ROOT / "results" / "validation" / "diagnosis.csv"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    table.to_csv(out, index=False, float_format="%.6g")
+    print(table.to_string(index=False))
+    if not args.names:
+        times["validate_wall_time_s"] = time.perf_counter() - t0
+    record(times)
+    print(f"written {out}; {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()

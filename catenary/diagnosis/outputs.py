@@ -1,0 +1,244 @@
+"""Files of the diagnosis rule for one span type (README: "Discrepancy workflow").
+
+``findings.csv`` (one row per step), ``candidates.csv`` (every candidate at every step),
+``steps.json`` (everything located before and after each step), the four figures of
+:mod:`.figures` and ``summary.md`` in plain words.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .candidates import CANDIDATES, CandidateParameter
+from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure
+from .runner import DiagnosisRun
+
+__all__ = ["CANDIDATE_COLUMNS", "DiagnosisPaths", "FINDING_COLUMNS", "candidates_table", "findings_table",
+           "format_magnitude", "summary_markdown", "write_diagnosis"]
+
+FINDING_COLUMNS = ("step", "verdict", "effect", "runner_up", "delta_loglik", "p_value", "parameters",
+                   "gap_closed_fraction", "bic_margin_to_runner_up", "j_before", "j_after", "top_eigenvalue_before",
+                   "top_eigenvalue_after", "top_eigenvalue_band_after", "mahalanobis_cvm_p_before",
+                   "mahalanobis_cvm_p_after", "converged")
+CANDIDATE_COLUMNS = ("step", "effect", "n_parameters", "loglik", "delta_loglik", "lr_statistic", "lr_sandwich_factor",
+                     "p_value", "p_adjusted", "aic", "bic", "parameters", "detectable_magnitude", "score_statistic",
+                     "score_p_value", "score_z", "converged", "n_evaluations", "time_s")
+
+
+@dataclass(frozen=True)
+class DiagnosisPaths:
+    """Where :func:`write_diagnosis` writes each output."""
+
+    findings: Path
+    candidates: Path
+    steps: Path
+    residuals: Path
+    eigenvalues: Path
+    qq: Path
+    scores: Path
+    summary: Path
+
+    @classmethod
+    def in_folder(cls, folder: str | Path) -> "DiagnosisPaths":
+        f = Path(folder)
+        return cls(findings=f / "findings.csv", candidates=f / "candidates.csv", steps=f / "steps.json",
+                   residuals=f / "residuals.png", eigenvalues=f / "eigenvalues.png", qq=f / "mahalanobis_qq.png",
+                   scores=f / "score_screen.png", summary=f / "summary.md")
+
+
+def _json(value) -> str:
+    def clean(v):
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if isinstance(v, (float, np.floating)):
+            return None if not np.isfinite(v) else float(v)
+        return v
+    return json.dumps(clean(value), ensure_ascii=False)
+
+
+def _parameter(effect: str, name: str) -> CandidateParameter:
+    return next(p for p in CANDIDATES[effect].parameters if p.name == name)
+
+
+def format_magnitude(value: float, unit: str, se: float | None = None) -> str:
+    """A magnitude in the unit people read: N, mm for metres, per cent for fractions."""
+    scale, suffix, digits = {"N": (1.0, " N", 0), "m": (1e3, " mm", 1)}.get(unit, (1.0, "", 3))
+    if not np.isfinite(value):
+        return "∞"
+    text = f"{scale * value:.{digits}f}"
+    if se is not None and np.isfinite(se):
+        text += f" ± {scale * se:.{digits}f}"
+    return text + suffix
+
+
+def findings_table(run: DiagnosisRun) -> pd.DataFrame:
+    rows = []
+    for s in run.steps:
+        lead = s.leading
+        runner = next((c for c in s.candidates if c.effect == s.runner_up), None)
+        after = s.after
+        rows.append(dict(
+            step=s.step, verdict=s.verdict, effect=s.effect or "", runner_up=s.runner_up or "",
+            delta_loglik=lead.delta_loglik if lead else np.nan, p_value=lead.p_adjusted if lead else np.nan,
+            parameters=_json({k: list(v) for k, v in lead.estimates.items()}) if lead else "{}",
+            gap_closed_fraction=s.gap_closed_fraction,
+            bic_margin_to_runner_up=(runner.bic - lead.bic) if (lead and runner) else np.nan,
+            j_before=s.before.j, j_after=after.j if after else np.nan,
+            top_eigenvalue_before=s.before.eigenvalues[0], top_eigenvalue_after=after.eigenvalues[0] if after else np.nan,
+            top_eigenvalue_band_after=_json([after.eigen_low[0], after.eigen_high[0]]) if after else "",
+            mahalanobis_cvm_p_before=s.before.cvm_p_value, mahalanobis_cvm_p_after=after.cvm_p_value if after else np.nan,
+            converged=bool(lead.converged) if lead else True))
+    return pd.DataFrame(rows, columns=list(FINDING_COLUMNS))
+
+
+def candidates_table(run: DiagnosisRun) -> pd.DataFrame:
+    rows = []
+    for s in run.steps:
+        for c in s.candidates:
+            rows.append(dict(step=s.step, effect=c.effect, n_parameters=c.n_parameters, loglik=c.j,
+                             delta_loglik=c.delta_loglik, lr_statistic=c.lr_statistic, lr_sandwich_factor=c.lr_factor,
+                             p_value=c.p_value, p_adjusted=c.p_adjusted, aic=c.aic, bic=c.bic,
+                             parameters=_json({k: list(v) for k, v in c.estimates.items()}),
+                             detectable_magnitude=_json(c.detectable), score_statistic=c.score_statistic,
+                             score_p_value=c.score_p_value, score_z=_json(c.score_z), converged=c.converged,
+                             n_evaluations=c.n_evaluations, time_s=c.time_s))
+    return pd.DataFrame(rows, columns=list(CANDIDATE_COLUMNS))
+
+
+def _described(effect: str, estimates: dict) -> str:
+    parts = []
+    for name, (value, se) in estimates.items():
+        p = _parameter(effect, name)
+        parts.append(f"{p.label} = {format_magnitude(value, p.unit, se)}")
+    return ", ".join(parts)
+
+
+def _where(loc) -> list[str]:
+    out = []
+    off = [i for i in range(loc.residual_mean_m.size) if loc.residual_low_m[i] > 0 or loc.residual_high_m[i] < 0]
+    if off:
+        out.append("mean residuals outside their 95 % interval of 0 at dropper(s) "
+                   + ", ".join(f"{i + 1} ({1e3 * loc.residual_mean_m[i]:+.2f} mm)" for i in off))
+    else:
+        out.append("no dropper's mean residual is significant (largest "
+                   f"{1e3 * np.max(np.abs(loc.residual_mean_m)):.2f} mm)")
+    inside = loc.top_eigenvalue_inside
+    out.append(f"top whitened eigenvalue λ₁ = {loc.eigenvalues[0]:.2f}, "
+               f"{'inside' if inside else 'outside'} its bootstrap 95 % range "
+               f"[{loc.eigen_low[0]:.2f}, {loc.eigen_high[0]:.2f}]"
+               + ("" if inside else ": the data vary along a direction the model does not"))
+    out.append(f"Mahalanobis distances against χ²{loc.residual_mean_m.size}: Cramér–von Mises p = {loc.cvm_p_value:.3g}")
+    return out
+
+
+def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = ()) -> str:
+    """The plain-words report of a diagnosis run."""
+    s = run.settings
+    lines = [f"# Diagnosis of span type {run.span_type}", ""]
+    if not run.converged:
+        lines += ["> **Warning: an optimiser did not converge** (`converged` in `findings.csv` and "
+                  "`candidates.csv`); the figures below are those it stopped at.", ""]
+    start = ", ".join(run.base.random_inputs) + " random; free means: " + (", ".join(run.base.free_means) or "none")
+    lines += [f"{run.n_spans} measured spans. Starting model: {start}; span model "
+              f"{'pinned at its masts' if run.base.neighbours == 0 else 'in the line (wires continuous over the masts)'}"
+              + (f"; effects {', '.join(s.start_effects)}" if s.start_effects else "") + ".",
+              f"Tests at the {100 * s.level:g} % level, Bonferroni over the candidates of each step; the leader is named "
+              f"only if the runner-up's BIC is at least {s.bic_margin:g} higher. Design N = {s.n_samples}; "
+              f"{run.time_s:.0f} s.", ""]
+    if run.skipped:
+        lines += ["Candidates not tried: " + "; ".join(f"`{k}` ({v})" for k, v in run.skipped.items()) + ".", ""]
+    for st in run.steps:
+        lines += [f"## Step {st.step}", "",
+                  f"Model: {', '.join(st.model_effects) or 'the starting model'} (J = {st.before.j:.2f}). "
+                  "Where it disagrees with the data:", ""]
+        lines += [f"- {w}" for w in _where(st.before)]
+        lines += [f"- a free mean shift would gain {st.before.free_shift_gain:.1f} in J, a free Gaussian law of W "
+                  f"{st.before.free_gaussian_gain:.1f} (the largest gain any model can show)", ""]
+        lead = st.leading
+        if st.verdict == "named":
+            runner = next((c for c in st.candidates if c.effect == st.runner_up), None)
+            lines += [f"**Named: `{st.effect}`** — {CANDIDATES[st.effect].summary}: "
+                      f"{_described(st.effect, lead.estimates)}. J rose by {lead.delta_loglik:.1f} (LR "
+                      f"{lead.lr_statistic:.1f}, adjusted p = {lead.p_adjusted:.2g}), "
+                      f"{100 * st.gap_closed_fraction:.0f} % of the free Gaussian's gain"
+                      + (f"; runner-up `{runner.effect}` with a BIC higher by {runner.bic - lead.bic:.1f}." if runner
+                         else "."), ""]
+            a = st.after
+            lines += [f"After adding it: λ₁ = {a.eigenvalues[0]:.2f} "
+                      f"({'inside' if a.top_eigenvalue_inside else 'still outside'} [{a.eigen_low[0]:.2f}, "
+                      f"{a.eigen_high[0]:.2f}]), Mahalanobis CvM p = {a.cvm_p_value:.3g}, free Gaussian gain left "
+                      f"{a.free_gaussian_gain:.1f}.", ""]
+        elif st.verdict == "ambiguous":
+            runner = next(c for c in st.candidates if c.effect == st.runner_up)
+            lines += [f"**Ambiguous between `{st.effect}` and `{st.runner_up}`**: both explain the gap "
+                      f"(Δℓ {lead.delta_loglik:.1f}: {_described(st.effect, lead.estimates)}; Δℓ {runner.delta_loglik:.1f}: "
+                      f"{_described(runner.effect, runner.estimates)}); their BIC differ by only "
+                      f"{runner.bic - lead.bic:.1f} (< {s.bic_margin:g}). W alone cannot tell them apart; nothing is "
+                      "added.", ""]
+        else:
+            lines += ["**No missing effect detected**: no candidate improves J significantly"
+                      + (f" (largest Δℓ {max(c.delta_loglik for c in st.candidates):.2f}, `"
+                         f"{max(st.candidates, key=lambda c: c.delta_loglik).effect}`)." if st.candidates else "."), ""]
+        lines += ["| candidate | Δℓ | LR | adjusted p | BIC | estimate | smallest detectable (realistic) |",
+                  "|---|---:|---:|---:|---:|---|---|"]
+        for c in sorted(st.candidates, key=lambda c: c.bic):
+            det = "; ".join(
+                f"{format_magnitude(v, _parameter(c.effect, k).unit)} "
+                f"({format_magnitude(_parameter(c.effect, k).realistic, _parameter(c.effect, k).unit)}"
+                f"{'' if v <= _parameter(c.effect, k).realistic else ': undetectable'})"
+                for k, v in c.detectable.items())
+            est = "; ".join(f"{format_magnitude(v, _parameter(c.effect, k).unit, se)}"
+                            for k, (v, se) in c.estimates.items())
+            lines.append(f"| `{c.effect}` | {c.delta_loglik:.2f} | {c.lr_statistic:.2f} | {c.p_adjusted:.2g} | "
+                         f"{c.bic:.1f} | {est} | {det} |")
+        lines.append("")
+    undetectable = sorted({c.effect for st in run.steps[-1:] for c in st.candidates
+                           if any(v > _parameter(c.effect, k).realistic for k, v in c.detectable.items())})
+    lines += ["## Conclusion", ""]
+    named = run.named
+    lines.append(("Named, in order: " + ", ".join(f"`{n}`" for n in named) + ".") if named
+                 else "No missing effect named.")
+    last = run.steps[-1] if run.steps else None
+    if last is not None and last.verdict == "ambiguous":
+        lines.append(f"Then ambiguous between `{last.effect}` and `{last.runner_up}`.")
+    if undetectable:
+        lines.append("At a realistic size these cannot be seen in this data set (their smallest detectable "
+                     "magnitude is larger): " + ", ".join(f"`{u}`" for u in undetectable)
+                     + ". Undetectable, not absent.")
+    if run.steps and run.steps[0].before.free_gaussian_gain > 0:
+        first, final = run.steps[0].before, (last.after if last and last.after else last.before) if last else None
+        lines.append(f"The gap to a free Gaussian law of W went from {first.free_gaussian_gain:.1f} to "
+                     f"{final.free_gaussian_gain:.1f} in J.")
+    lines.append("")
+    if figures:
+        lines += ["## Figures", ""] + [f"![{f}]({f})" for f in figures] + [""]
+    return "\n".join(lines)
+
+
+def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths) -> None:
+    """Write every output of one span type's diagnosis."""
+    for p in paths.__dict__.values():
+        Path(p).parent.mkdir(parents=True, exist_ok=True)
+    findings_table(run).to_csv(paths.findings, index=False, float_format="%.10g")
+    candidates_table(run).to_csv(paths.candidates, index=False, float_format="%.10g")
+    steps = [{"step": s.step, "model_effects": list(s.model_effects), "verdict": s.verdict, "effect": s.effect,
+              "runner_up": s.runner_up, "before": s.before.as_dict(), "after": s.after.as_dict() if s.after else None}
+             for s in run.steps]
+    Path(paths.steps).write_text(_json({"span_type": run.span_type, "n_spans": run.n_spans, "converged": run.converged,
+                                        "skipped": run.skipped, "data_henze_zirkler": run.data_normality,
+                                        "final_effects": list(run.final.effects), "time_s": run.time_s,
+                                        "steps": steps}) + "\n")
+    title = f"{run.span_type}"
+    residual_figure(run, paths.residuals, title)
+    eigenvalue_figure(run, paths.eigenvalues, title)
+    qq_figure(run, paths.qq, title)
+    score_figure(run, paths.scores, title)
+    Path(paths.summary).write_text(summary_markdown(
+        run, figures=tuple(Path(p).name for p in (paths.residuals, paths.eigenvalues, paths.qq, paths.scores))))

@@ -1,0 +1,39 @@
+"""Rule diagnose: locate, name, add the missing effects of one span type's identification model."""
+
+import os
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):   # one BLAS thread per process
+    os.environ[_var] = "1"
+
+from pathlib import Path  # noqa: E402
+
+from catenary.config import load_catenary  # noqa: E402
+from catenary.correction import CorrectionSettings  # noqa: E402
+from catenary.diagnosis.inputs import measuring_pass_of  # noqa: E402
+from catenary.diagnosis.outputs import DiagnosisPaths, write_diagnosis  # noqa: E402
+from catenary.diagnosis.runner import diagnose  # noqa: E402
+from catenary.diagnosis.settings import DiagnosisSettings  # noqa: E402
+from catenary.identification.report import read_corrected  # noqa: E402
+from catenary.identification.settings import IdentificationSettings  # noqa: E402
+from catenary.logs import rule_logger  # noqa: E402
+from catenary.pantograph import load_pantographs  # noqa: E402
+
+log = rule_logger("diagnose", snakemake.log[0])
+catenary = load_catenary(snakemake.input.catenary)
+span_type = catenary.span_type(snakemake.wildcards.span_type)
+identification = IdentificationSettings.from_mapping(snakemake.params.identification)
+settings = DiagnosisSettings.from_mapping(snakemake.params.diagnosis)
+correction = CorrectionSettings.from_mapping(snakemake.params.correction)
+log.info("settings: %s", settings.as_mapping())
+data = read_corrected(snakemake.input.corrected, span_type)
+log.info("%s: %d converged spans used, %d left out", span_type.name, data.w_m.shape[0], len(data.left_out))
+pantograph = load_pantographs(snakemake.input.pantographs)[correction.pantograph]
+measuring = measuring_pass_of(snakemake.input.corrected, snakemake.input.recording, span_type, catenary, pantograph,
+                              correction)
+log.info("measuring pass: %.1f km/h, declared force %.1f N; ∂W/∂F at the droppers %s mm/N", 3.6 * measuring.speed_m_s,
+         measuring.force_n, " ".join(f"{1e3 * g:.3f}" for g in measuring.influence_m_n))
+run = diagnose(span_type, catenary, data.w_m, identification, settings, mast_pairs=data.mast_pairs,
+               force_influence_m_n=measuring.influence_m_n, declared_force_n=measuring.force_n,
+               workers=snakemake.threads, log=log)
+write_diagnosis(run, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent))
+log.info("%s: named %s in %.0f s", span_type.name, run.named or "nothing", run.time_s)

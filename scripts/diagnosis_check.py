@@ -1,0 +1,22 @@
+"""Rule diagnosis_check: the diagnosis's findings against the campaign's hidden effects."""
+
+from pathlib import Path
+
+import pandas as pd
+
+from catenary.config import load_catenary
+from catenary.diagnosis.validation import diagnosis_check
+from catenary.logs import rule_logger
+from catenary.parquet import read_table
+from catenary.truth import load_truth
+
+log = rule_logger("diagnosis_check", snakemake.log[0])
+catenary = load_catenary(snakemake.input.catenary)
+spec = load_truth(snakemake.input.campaign, catenary)
+findings = {t: pd.read_csv(p) for t, p in zip(snakemake.params.span_types, snakemake.input.findings)}
+table = diagnosis_check(findings, spec, read_table(snakemake.input.truth), Path(snakemake.input.campaign).stem)
+table.to_csv(snakemake.output.summary, index=False, float_format="%.10g")
+for _, r in table.iterrows():
+    log.info("%s %s step %d: %s %s %s = %.6g ± %.3g (planted %.6g, realized %.6g, z %+.2f)", r["campaign"],
+             r["span_type"], r["step"], r["verdict"], r["effect"], r["parameter"], r["identified"],
+             r["standard_error"], r["planted_magnitude"], r["realized_magnitude"], r["z"])

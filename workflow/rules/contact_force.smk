@@ -1,0 +1,54 @@
+# contact_force_outputs() and contact_force_batches() live in common.smk.
+
+
+rule contact_force_batch:
+    """Dynamic runs over one batch of random sections drawn from the identified laws (or a
+    tolerance case's): EN 50318 criteria and EN 50367 limits per replicate and speed."""
+    input:
+        s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
+        findings=f"{RESULTS}/{{span_type}}/diagnosis/findings.csv",
+        catenary=config["catenary"],
+        pantographs=config["pantographs"],
+    output:
+        batch=f"{RESULTS}/{{span_type}}/contact_force/batches/{{case}}_{{batch}}.parquet",
+    wildcard_constraints:
+        case="identified|sobol|tol_[^/]+",
+        batch="[0-9]+",
+    params:
+        contact_force=config["contact_force"],
+    log:
+        f"{RESULTS}/logs/contact_force_batch/{{span_type}}_{{case}}_{{batch}}.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/contact_force_batch.py"
+
+
+rule contact_force:
+    """Gather: statistics of the criteria over random sections, the nominal section's, violation
+    probabilities, the tolerance study, the sensitivity and the report."""
+    input:
+        batches=lambda wc: contact_force_batches(wc.span_type),
+        s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
+        findings=f"{RESULTS}/{{span_type}}/diagnosis/findings.csv",
+        catenary=config["catenary"],
+        pantographs=config["pantographs"],
+    output:
+        replicates=f"{RESULTS}/{{span_type}}/contact_force/replicates.parquet",
+        summary=f"{RESULTS}/{{span_type}}/contact_force/summary.csv",
+        nominal=f"{RESULTS}/{{span_type}}/contact_force/nominal.csv",
+        tolerance=f"{RESULTS}/{{span_type}}/contact_force/tolerance.csv",
+        sensitivity=f"{RESULTS}/{{span_type}}/contact_force/sensitivity.csv",
+        histograms=f"{RESULTS}/{{span_type}}/contact_force/histograms.png",
+        sobol=f"{RESULTS}/{{span_type}}/contact_force/sobol.png",
+        tolerance_figure=f"{RESULTS}/{{span_type}}/contact_force/tolerance.png",
+        report=f"{RESULTS}/{{span_type}}/contact_force/report.md",
+    params:
+        contact_force=config["contact_force"],
+        folder=lambda wc: f"{RESULTS}/{wc.span_type}/contact_force",
+    log:
+        f"{RESULTS}/logs/contact_force/{{span_type}}.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/contact_force.py"

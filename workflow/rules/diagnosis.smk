@@ -1,0 +1,51 @@
+# diagnosis_outputs() lives in common.smk (the linter wants no functions beside rules).
+
+
+rule diagnose:
+    """Discrepancy workflow of one span type: locate where the identification model and the
+    corrected W disagree, name the missing effect among the candidates, add it, show the gap
+    shrink (README: Discrepancy workflow)."""
+    input:
+        corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
+        recording=f"{RESULTS}/ingest/recording.parquet",
+        catenary=config["catenary"],
+        pantographs=config["pantographs"],
+    output:
+        findings=f"{RESULTS}/{{span_type}}/diagnosis/findings.csv",
+        candidates=f"{RESULTS}/{{span_type}}/diagnosis/candidates.csv",
+        steps=f"{RESULTS}/{{span_type}}/diagnosis/steps.json",
+        residuals=f"{RESULTS}/{{span_type}}/diagnosis/residuals.png",
+        eigenvalues=f"{RESULTS}/{{span_type}}/diagnosis/eigenvalues.png",
+        qq=f"{RESULTS}/{{span_type}}/diagnosis/mahalanobis_qq.png",
+        scores=f"{RESULTS}/{{span_type}}/diagnosis/score_screen.png",
+        summary=f"{RESULTS}/{{span_type}}/diagnosis/summary.md",
+    params:
+        identification=config["identification"],
+        diagnosis=config["diagnosis"],
+        correction=config["correction"],
+    threads: 2
+    log:
+        f"{RESULTS}/logs/diagnose/{{span_type}}.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/diagnose.py"
+
+
+rule diagnosis_check:
+    """Validation only: what the diagnosis named against the campaign's hidden effects."""
+    input:
+        findings=expand(f"{RESULTS}/{{span_type}}/diagnosis/findings.csv", span_type=SPAN_TYPES),
+        campaign=config["campaign"],
+        truth=f"{RESULTS}/campaign/truth.parquet",
+        catenary=config["catenary"],
+    output:
+        summary=f"{RESULTS}/validation/diagnosis_check.csv",
+    params:
+        span_types=SPAN_TYPES,
+    log:
+        f"{RESULTS}/logs/diagnosis_check.log",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/diagnosis_check.py"
