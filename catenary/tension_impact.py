@@ -241,7 +241,7 @@ def tension_impact_figure(result: TensionImpactResult, path: str | Path) -> Path
     bottom.plot(result.x_m, d, "k-", lw=1.2, label="measured difference")
     bottom.plot(result.dropper_x_m, MM * result.difference_droppers_m, "ko", ms=4, label="at the droppers")
     for level in (-2.0, 2.0):
-        bottom.axhline(level, color="C1", ls=":", lw=1.0)
+        bottom.axhline(level, color="C1", ls=":", lw=1.0, label="±2 mm (the paper's bound)" if level > 0 else None)
     bottom.set_xlabel("x along the central span [m]")
     bottom.set_ylabel(f"{t[0]:g} kN − {t[1]:g} kN [mm]")
     bottom.legend(fontsize=8)

@@ -14,7 +14,9 @@ log = rule_logger("diagnosis_check", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
 spec = load_truth(snakemake.input.campaign, catenary)
 findings = {t: pd.read_csv(p) for t, p in zip(snakemake.params.span_types, snakemake.input.findings)}
-table = diagnosis_check(findings, spec, read_table(snakemake.input.truth), Path(snakemake.input.campaign).stem)
+# Campaign name: config/validation/d_puzzle_campaign.yaml → d_puzzle; config/campaign.yaml → default.
+name = Path(snakemake.input.campaign).stem.removesuffix("_campaign")
+table = diagnosis_check(findings, spec, read_table(snakemake.input.truth), "default" if name == "campaign" else name)
 table.to_csv(snakemake.output.summary, index=False, float_format="%.10g")
 for _, r in table.iterrows():
     log.info("%s %s step %d: %s %s %s = %.6g ± %.3g (planted %.6g, realized %.6g, z %+.2f)", r["campaign"],

@@ -2,9 +2,9 @@
 :mod:`.report` and :mod:`.band`.
 
 * :func:`estimators_figure` — Gaussian (dashed) against kernel (solid) marginals of W at the
-  droppers for several sample sizes N (paper Fig. 7), measured W as a rug;
+  droppers for several sample sizes N (paper Fig. 7), the corrected static W as a rug;
 * :func:`band_figure` — the band of the CW deflection along the span under s_opt with the
-  measured W at the droppers (paper Fig. 10).
+  corrected static W at the droppers (paper Fig. 10).
 """
 
 from __future__ import annotations
@@ -57,7 +57,8 @@ def estimators_figure(marginals: list[MarginalDensities], data_w_m: np.ndarray, 
             ax.plot(x, m.gaussian[:, i] / MM, "--", color=c, lw=1.0)
             ax.plot(x, m.kernel[:, i] / MM, "-", color=c, lw=1.2, label=f"N = {m.n_samples:g}")
         top = ax.get_ylim()[1]
-        ax.plot(MM * data[:, i], np.full(data.shape[0], 0.02 * top), "|", color="k", ms=6, alpha=0.5)
+        ax.plot(MM * data[:, i], np.full(data.shape[0], 0.02 * top), "|", color="k", ms=6, alpha=0.5,
+                label=f"corrected static W ({data.shape[0]} spans)" if i == 0 else None)
         ax.set_title(f"dropper {i + 1}", fontsize=9)
         ax.set_xlabel("W [mm]", fontsize=8)
         ax.set_ylabel("density [1/mm]", fontsize=8)
@@ -70,7 +71,7 @@ def estimators_figure(marginals: list[MarginalDensities], data_w_m: np.ndarray, 
 
 def band_figure(band: DeflectionBand, data_w_m: np.ndarray, dropper_positions_m: np.ndarray,
                 path: str | Path, title: str) -> Path:
-    """The band of the CW deflection along the span with the measured W at the droppers.
+    """The band of the CW deflection along the span with the corrected static W at the droppers.
 
     Parameters
     ----------
@@ -92,7 +93,7 @@ def band_figure(band: DeflectionBand, data_w_m: np.ndarray, dropper_positions_m:
                     label=f"{100 * band.level:.0f} % band (quantiles {lo:g} %–{hi:g} %) under s_opt")
     ax.plot(band.x_m, MM * band.median_m, color="tab:blue", lw=1.2, label="median")
     ax.plot(np.broadcast_to(x_d, data.shape).ravel(), MM * data.ravel(), "o", ms=2.5, color="k", alpha=0.45,
-            label=f"measured W ({data.shape[0]} spans)")
+            label=f"corrected static W ({data.shape[0]} spans)")
     ax.axhline(0.0, color="0.5", lw=0.6)
     ax.set_xlabel("x along the span [m]")
     ax.set_ylabel("CW deflection from the chord [mm]")
