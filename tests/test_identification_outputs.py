@@ -359,3 +359,23 @@ def test_a_singular_information_leaves_no_standard_errors_and_says_so(written, t
     write_identification(dataclasses.replace(run, result=singular), paths, config_hash="abc")
     assert (pd.read_csv(paths.s_opt)["status"] == "singular_information").all()
     assert "no standard errors" in paths.report.read_text()
+
+
+def test_too_few_spans_are_refused_and_few_spans_warned_about(catenary, n2, data, caplog):
+    # 13 identified parameters (defaults: 11 σ, T_MW and ΔH means): 12 spans are refused before
+    # any sampling, naming the counts and the settings to change; 13–38 spans (< 3 per
+    # parameter) pass with a warning.
+    from catenary.errors import InputError
+    from catenary.identification.report import _check_span_count
+
+    settings = IdentificationSettings.from_mapping(SMALL)
+    with pytest.raises(InputError, match=r"span type N2: 12 measured span\(s\) for 13 identified parameters; "
+                                         r"expected at least 13 spans.*identification.random_inputs"):
+        run_identification(n2, catenary, data[:12], settings)
+    import logging
+    log = logging.getLogger("test_span_count")
+    with caplog.at_level("WARNING"):
+        _check_span_count("N2", 20, 13, log)
+        _check_span_count("N2", 39, 13, log)
+    warnings = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert len(warnings) == 1 and "20 spans for 13 identified parameters" in warnings[0]

@@ -116,3 +116,20 @@ def test_diagnosis_files_say_what_was_found(span_type):
     assert "Named: `messenger_tension_variability`" in text and "No missing effect detected" in text
     for figure in (paths.residuals, paths.eigenvalues, paths.qq, paths.scores):
         assert figure.stat().st_size > 10_000
+
+
+def test_changing_one_span_types_settings_reruns_only_that_type(tmp_path):
+    # per_span_type overrides reach each job's params: after the small profile's run, a dry run
+    # with only N3's identification seed changed must schedule N3's identification and what
+    # depends on it, and no N2 job at all.
+    import subprocess
+
+    override = tmp_path / "n3_only.yaml"
+    override.write_text("per_span_type:\n  N3:\n    identification:\n      seed: 99\n")
+    snakemake = ROOT / ".venv" / "bin" / "snakemake"
+    dry = subprocess.run([str(snakemake) if snakemake.exists() else "snakemake", "--dry-run", "--configfile",
+                          "config/test.yaml", str(override)], cwd=ROOT, capture_output=True, text=True)
+    assert dry.returncode == 0, dry.stderr[-2000:]
+    jobs = [line.strip() for line in dry.stdout.splitlines() if line.strip().startswith(("output:", "wildcards:"))]
+    assert any("N3/identification/s_opt.csv" in j for j in jobs), dry.stdout[-3000:]
+    assert not any("/N2/" in j or "span_type=N2" in j for j in jobs), [j for j in jobs if "N2" in j]

@@ -20,6 +20,45 @@ def _load_catenary_config():
 CATENARY = _load_catenary_config()
 
 
+def _merged(base, override):
+    """``base`` with ``override`` merged key by key (nested mappings merged, anything else replaced)."""
+    out = dict(base)
+    for key, value in override.items():
+        out[key] = _merged(out[key], value) if isinstance(value, dict) and isinstance(out.get(key), dict) else value
+    return out
+
+
+def _per_span_type_settings():
+    """{block: {span type: settings}} for the blocks that `per_span_type` may override; each
+    merged block is checked against the same schema as the global one."""
+    from catenary.errors import ConfigError
+    from catenary.schema import check
+
+    overrides = config.get("per_span_type") or {}
+    unknown = sorted(set(overrides) - set(SPAN_TYPES))
+    if unknown:
+        raise WorkflowError(f"invalid configuration: per_span_type names {unknown}, not in span_types {SPAN_TYPES}")
+    blocks = {}
+    for block in ("identification", "diagnosis", "contact_force"):
+        blocks[block] = {}
+        for span_type in SPAN_TYPES:
+            merged = _merged(config[block], overrides.get(span_type, {}).get(block, {}))
+            try:
+                check(merged, "config", block, where=f"per_span_type.{span_type}.{block}")
+            except ConfigError as error:
+                raise WorkflowError(f"invalid configuration: {error}") from None
+            blocks[block][span_type] = merged
+    return blocks
+
+
+SPAN_TYPE_SETTINGS = _per_span_type_settings()
+
+
+def span_type_settings(block):
+    """A `params` function: the `block` settings of the job's span type (global block + overrides)."""
+    return lambda wildcards: SPAN_TYPE_SETTINGS[block][wildcards.span_type]
+
+
 def _campaign_sections():
     with open(config["campaign"]) as f:
         raw = yaml.safe_load(f)
@@ -118,7 +157,7 @@ def contact_force_batches(span_type):
     """Batch files of the contact-force study of one span type (every case, every batch)."""
     from catenary.contact_force.settings import ContactForceSettings, n_batches
 
-    settings = ContactForceSettings.from_mapping(config["contact_force"])
+    settings = ContactForceSettings.from_mapping(SPAN_TYPE_SETTINGS["contact_force"][span_type])
     n_droppers = len(CATENARY["span_types"][span_type]["dropper_positions_m"])
     return [f"{RESULTS}/{span_type}/contact_force/batches/{case}_{b}.parquet"
             for case in settings.cases() for b in range(n_batches(settings, case, n_droppers))]

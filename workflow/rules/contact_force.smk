@@ -15,7 +15,7 @@ rule contact_force_batch:
         case="identified|sobol|tol_[^/]+",
         batch="[0-9]+",
     params:
-        contact_force=config["contact_force"],
+        contact_force=span_type_settings("contact_force"),
     log:
         f"{RESULTS}/logs/contact_force_batch/{{span_type}}_{{case}}_{{batch}}.log",
     conda:
@@ -44,7 +44,7 @@ rule contact_force:
         tolerance_figure=f"{RESULTS}/{{span_type}}/contact_force/tolerance.png",
         report=f"{RESULTS}/{{span_type}}/contact_force/report.md",
     params:
-        contact_force=config["contact_force"],
+        contact_force=span_type_settings("contact_force"),
         folder=lambda wc: f"{RESULTS}/{wc.span_type}/contact_force",
     log:
         f"{RESULTS}/logs/contact_force/{{span_type}}.log",

@@ -20,8 +20,8 @@ rule diagnose:
         scores=f"{RESULTS}/{{span_type}}/diagnosis/score_screen.png",
         summary=f"{RESULTS}/{{span_type}}/diagnosis/summary.md",
     params:
-        identification=config["identification"],
-        diagnosis=config["diagnosis"],
+        identification=span_type_settings("identification"),
+        diagnosis=span_type_settings("diagnosis"),
         correction=config["correction"],
     threads: 2
     log:

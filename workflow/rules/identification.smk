@@ -16,7 +16,7 @@ rule identify:
         band=f"{RESULTS}/{{span_type}}/identification/band.png",
         report=f"{RESULTS}/{{span_type}}/identification/identification.md",
     params:
-        identification=config["identification"],
+        identification=span_type_settings("identification"),
     log:
         f"{RESULTS}/logs/identify/{{span_type}}.log",
     conda:
