@@ -7,7 +7,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 CORES ?= 2
 
-.PHONY: setup run test test-slow bench validate clean
+.PHONY: setup run own-data paper test test-slow bench validate clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -19,6 +19,15 @@ setup: $(STAMP)
 
 run: setup
 	$(BIN)/snakemake --cores $(CORES) --rerun-incomplete --configfile config/config.yaml
+
+# Your recording only (ingest → … → identification → diagnosis): make own-data OWN=config/my_line.yaml
+OWN ?= config/own_data.yaml
+own-data: setup
+	$(BIN)/snakemake --cores $(CORES) --rerun-incomplete --configfile $(OWN) -- measurements
+
+# The paper-reproduction simulations only (dropper table, Figs 2–4 and 6, dynamics)
+paper: setup
+	$(BIN)/snakemake --cores $(CORES) --rerun-incomplete --configfile config/config.yaml -- paper
 
 # The small profile runs before pytest: the `pipeline` tests check its results against its truth.
 # pytest runs last so that its summary is the closing line.

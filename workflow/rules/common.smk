@@ -91,7 +91,7 @@ def measurement_outputs():
     return outputs
 
 
-def identification_outputs():
+def identification_outputs(span_types=SPAN_TYPES):
     """Outputs of rule identify (workflow/rules/identification.smk), one folder per span type,
     and the check against the truth on campaign runs."""
     outputs = expand(
@@ -100,25 +100,55 @@ def identification_outputs():
             for name in ("s_opt.csv", "trace.parquet", "estimators.png", "normality.json", "band.png",
                          "identification.md")
         ],
-        span_type=SPAN_TYPES,
+        span_type=span_types,
     )
     if config["recording"].startswith(f"{RESULTS}/campaign/"):
         outputs.append(f"{RESULTS}/validation/identification_check.csv")
     return outputs
 
 
-def inversion_outputs():
-    """Dropper-only inversion (paper §4.1) and the T_MW impact check (Fig. 6), rules in inversion.smk."""
+def inversion_outputs(span_types=SPAN_TYPES):
+    """Dropper-only inversion (paper §4.1), rule invert in inversion.smk."""
     return expand(
         [
             f"{RESULTS}/{{span_type}}/inversion/droppers.parquet",
             f"{RESULTS}/{{span_type}}/inversion/table1.csv",
             f"{RESULTS}/{{span_type}}/inversion/pearson.png",
+        ],
+        span_type=span_types,
+    )
+
+
+def paper_outputs():
+    """The paper-reproduction simulations of each configured span type (no recording needed):
+    dropper table, sensitivity (Figs 2–4), dynamics at 250/300 km/h, T_MW impact (Fig. 6)."""
+    return static_outputs() + expand(
+        [
             f"{RESULTS}/{{span_type}}/tension_impact/summary.csv",
             f"{RESULTS}/{{span_type}}/tension_impact/tension_impact.png",
         ],
         span_type=SPAN_TYPES,
     )
+
+
+def measured_span_types():
+    """The span types of `span_types` that the projection found spans of (known once the
+    projection checkpoint has run). A type without spans gets no per-type job: no failing
+    identification for a type the recording does not hold."""
+    import pyarrow.parquet as pq
+
+    outputs = checkpoints.project.get().output.spans
+    return [t for t, path in zip(SPAN_TYPES, outputs) if pq.read_metadata(path).num_rows > 0]
+
+
+def measured_outputs(wildcards=None, contact_force=True):
+    """Per-type outputs of the measured span types: inversion, identification, diagnosis and,
+    unless ``contact_force`` is false, the contact-force study; with the campaign checks."""
+    types = measured_span_types()
+    outputs = (inversion_outputs(types) + identification_outputs(types) + diagnosis_outputs(types))
+    if contact_force:
+        outputs += contact_force_outputs(types)
+    return outputs
 
 
 def correction_sections(wildcards=None):
@@ -137,7 +167,7 @@ def correction_outputs():
     return outputs
 
 
-def diagnosis_outputs():
+def diagnosis_outputs(span_types=SPAN_TYPES):
     """Outputs of rule diagnose (workflow/rules/diagnosis.smk) per span type, and the check
     against the hidden effects on campaign runs."""
     outputs = expand(
@@ -146,7 +176,7 @@ def diagnosis_outputs():
             for name in ("findings.csv", "candidates.csv", "steps.json", "residuals.png", "eigenvalues.png",
                          "mahalanobis_qq.png", "score_screen.png", "summary.md")
         ],
-        span_type=SPAN_TYPES,
+        span_type=span_types,
     )
     if config["recording"].startswith(f"{RESULTS}/campaign/"):
         outputs.append(f"{RESULTS}/validation/diagnosis_check.csv")
@@ -163,7 +193,7 @@ def contact_force_batches(span_type):
             for case in settings.cases() for b in range(n_batches(settings, case, n_droppers))]
 
 
-def contact_force_outputs():
+def contact_force_outputs(span_types=SPAN_TYPES):
     """Outputs of rule contact_force (workflow/rules/contact_force.smk) per span type."""
     return expand(
         [
@@ -171,5 +201,5 @@ def contact_force_outputs():
             for name in ("replicates.parquet", "summary.csv", "nominal.csv", "tolerance.csv", "sensitivity.csv",
                          "histograms.png", "sobol.png", "tolerance.png", "report.md")
         ],
-        span_type=SPAN_TYPES,
+        span_type=span_types,
     )
