@@ -1,5 +1,7 @@
 import yaml
 
+from catenary.schema import check as check_schema
+
 RESULTS = config["results"]
 SPAN_TYPES = config["span_types"]
 
@@ -7,7 +9,7 @@ SPAN_TYPES = config["span_types"]
 def _load_catenary_config():
     with open(config["catenary"]) as f:
         raw = yaml.safe_load(f)
-    validate(raw, "../schemas/catenary.schema.yaml")
+    check_schema(raw, "catenary", where=config["catenary"])
     unknown = sorted(set(SPAN_TYPES) - set(raw["span_types"]))
     if unknown:
         raise ValueError(
@@ -20,19 +22,11 @@ def _load_catenary_config():
 CATENARY = _load_catenary_config()
 
 
-def _merged(base, override):
-    """``base`` with ``override`` merged key by key (nested mappings merged, anything else replaced)."""
-    out = dict(base)
-    for key, value in override.items():
-        out[key] = _merged(out[key], value) if isinstance(value, dict) and isinstance(out.get(key), dict) else value
-    return out
-
-
 def _per_span_type_settings():
     """{block: {span type: settings}} for the blocks that `per_span_type` may override; each
     merged block is checked against the same schema as the global one."""
     from catenary.errors import ConfigError
-    from catenary.schema import check
+    from catenary.identification.settings import merged_mapping
 
     overrides = config.get("per_span_type") or {}
     unknown = sorted(set(overrides) - set(SPAN_TYPES))
@@ -42,12 +36,13 @@ def _per_span_type_settings():
     for block in ("identification", "diagnosis", "contact_force"):
         blocks[block] = {}
         for span_type in SPAN_TYPES:
-            merged = _merged(config[block], overrides.get(span_type, {}).get(block, {}))
-            try:
-                check(merged, "config", block, where=f"per_span_type.{span_type}.{block}")
-            except ConfigError as error:
-                raise WorkflowError(f"invalid configuration: {error}") from None
-            blocks[block][span_type] = merged
+            override = overrides.get(span_type, {}).get(block)
+            blocks[block][span_type] = merged = merged_mapping(config[block], override)
+            if override:                  # the global block itself was checked in the Snakefile
+                try:
+                    check_schema(merged, "config", block, where=f"per_span_type.{span_type}.{block}")
+                except ConfigError as error:
+                    raise WorkflowError(f"invalid configuration: {error}") from None
     return blocks
 
 
@@ -62,7 +57,7 @@ def span_type_settings(block):
 def _campaign_sections():
     with open(config["campaign"]) as f:
         raw = yaml.safe_load(f)
-    validate(raw, "../schemas/campaign.schema.yaml")
+    check_schema(raw, "campaign", where=config["campaign"])
     return [s["section_id"] for s in raw["line"]["sections"]]
 
 
