@@ -6,8 +6,9 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 CORES ?= 2
+SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 
-.PHONY: setup run own-data paper test test-slow bench validate clean
+.PHONY: setup run own-data paper test test-slow test-cluster bench validate clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,29 +19,35 @@ $(STAMP): pyproject.toml
 setup: $(STAMP)
 
 run: setup
-	$(BIN)/snakemake --cores $(CORES) --rerun-incomplete --configfile config/config.yaml
+	$(SMK) --cores $(CORES) --configfile config/config.yaml
 
 # Your recording only (ingest → … → identification → diagnosis): make own-data OWN=config/my_line.yaml
 OWN ?= config/own_data.yaml
 own-data: setup
-	$(BIN)/snakemake --cores $(CORES) --rerun-incomplete --configfile $(OWN) -- measurements
+	$(SMK) --cores $(CORES) --configfile $(OWN) -- measurements
 
 # The paper-reproduction simulations only (dropper table, Figs 2–4 and 6, dynamics)
 paper: setup
-	$(BIN)/snakemake --cores $(CORES) --rerun-incomplete --configfile config/config.yaml -- paper
+	$(SMK) --cores $(CORES) --configfile config/config.yaml -- paper
 
 # The small profile runs before pytest: the `pipeline` tests check its results against its truth.
 # pytest runs last so that its summary is the closing line.
 test: setup
-	$(BIN)/snakemake --lint
-	$(BIN)/snakemake --dry-run --quiet --configfile config/config.yaml
-	$(BIN)/snakemake --dry-run --quiet --configfile config/test.yaml
-	$(BIN)/snakemake --cores $(CORES) --configfile config/test.yaml
+	$(SMK) --lint
+	$(SMK) --dry-run --quiet --configfile config/config.yaml
+	$(SMK) --dry-run --quiet --configfile config/test.yaml
+	$(SMK) --cores $(CORES) --configfile config/test.yaml
 	$(BIN)/python -m pytest -m 'not slow and not validation'
 
 # Calibration of the standard errors and convergence of the dynamic model (CI runs it after make test).
 test-slow: setup
 	$(BIN)/python -m pytest -m slow
+
+# The small profile's measurement pipeline through a one-node SLURM cluster on this machine (root:
+# installs Debian's Slurm, starts its daemons, stops them on exit); compared with the local run.
+test-cluster: setup
+	$(BIN)/python -m pip install --quiet -e '.[test,cluster]'
+	bash tests/cluster/run.sh
 
 bench: setup
 	$(BIN)/python benchmarks/run.py

@@ -110,6 +110,15 @@ def config_hash(mapping: Mapping[str, Any]) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
+def settings_hash(workflow_config: Mapping[str, Any]) -> str:
+    """:func:`config_hash` of a workflow configuration without its ``results`` folder.
+
+    The folder says where the outputs go, not how they were made: the same settings run into two
+    folders (a local run and a cluster run, say) write byte-identical tables.
+    """
+    return config_hash({key: value for key, value in workflow_config.items() if key != "results"})
+
+
 def file_metadata(*, config_hash: str, kind: str, extra: Mapping[str, str] | None = None) -> dict[str, str]:
     """The file-level metadata written by :func:`write_table` (``extra`` keys get the same prefix)."""
     return {

@@ -14,7 +14,7 @@ from catenary.contact_force.settings import ContactForceSettings
 from catenary.contact_force.summary import criteria_summary, tolerance_table
 from catenary.logs import rule_logger
 from catenary.pantograph import load_pantographs
-from catenary.parquet import config_hash, read_table
+from catenary.parquet import read_table, settings_hash
 
 log = rule_logger("contact_force", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -41,5 +41,5 @@ for criterion in ("std_force_n", "statistical_min_n"):
     sobol.append(r)
 replicates = replicates[replicates["case"] != "sobol"]
 write_contact_force(ContactForcePaths.in_folder(snakemake.params.folder), span_type.name, settings, replicates, nominal,
-                    summary, tolerance, sobol, laws.summary(), config_hash=config_hash(snakemake.config))
+                    summary, tolerance, sobol, laws.summary(), config_hash=settings_hash(snakemake.config))
 log.info("%s: %d replicate runs gathered", span_type.name, len(replicates))

@@ -11,7 +11,7 @@ from catenary.contact_force.sensitivity import sobol_design
 from catenary.contact_force.settings import ContactForceSettings, batch_replicates
 from catenary.logs import rule_logger
 from catenary.pantograph import load_pantographs
-from catenary.parquet import config_hash, write_table
+from catenary.parquet import settings_hash, write_table
 
 log = rule_logger("contact_force_batch", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -37,4 +37,4 @@ else:
     table = run_batch(laws, nominal, span_type, catenary, pantograph, settings, replicates, case=case,
                       speeds_kmh=speeds, log=log)
 write_table(table, Path(snakemake.output.batch), replicates_schema(table.columns),
-            config_hash=config_hash(snakemake.config), kind="contact_force_batch")
+            config_hash=settings_hash(snakemake.config), kind="contact_force_batch")

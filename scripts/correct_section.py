@@ -8,7 +8,7 @@ from catenary.config import load_catenary
 from catenary.correction import CorrectionSettings, correct_spans, corrected_schema
 from catenary.logs import rule_logger
 from catenary.pantograph import load_pantographs
-from catenary.parquet import config_hash, read_table, write_table
+from catenary.parquet import read_table, settings_hash, write_table
 
 log = rule_logger("correct_section", snakemake.log[0])
 section_id = snakemake.wildcards.section_id
@@ -25,6 +25,6 @@ log.info("section %s: %d spans, %s pass, tolerance %.2f mm", section_id, len(spa
          settings.tolerance_m * 1e3)
 corrected, convergence = correct_spans(spans, recording, catenary, pantograph, settings, log=log)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
-            config_hash=config_hash(snakemake.config), kind="corrected_section")
+            config_hash=settings_hash(snakemake.config), kind="corrected_section")
 convergence.to_csv(snakemake.output.convergence, index=False)
 log.info("section %s: %d of %d spans converged", section_id, int(corrected["converged"].sum()), len(corrected))

@@ -1,22 +1,20 @@
-"""Rule diagnose: locate, name, add the missing effects of one span type's identification model."""
+"""Rule diagnose: locate, name, add the missing effects of one span type's identification model.
 
-import os
+The refits run in ``threads`` worker processes of one BLAS thread each (the Snakefile sets it).
+"""
 
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):   # one BLAS thread per process
-    os.environ[_var] = "1"
+from pathlib import Path
 
-from pathlib import Path  # noqa: E402
-
-from catenary.config import load_catenary  # noqa: E402
-from catenary.correction import CorrectionSettings  # noqa: E402
-from catenary.diagnosis.inputs import measuring_pass_of  # noqa: E402
-from catenary.diagnosis.outputs import DiagnosisPaths, write_diagnosis  # noqa: E402
-from catenary.diagnosis.runner import diagnose  # noqa: E402
-from catenary.diagnosis.settings import DiagnosisSettings  # noqa: E402
-from catenary.identification.report import read_corrected  # noqa: E402
-from catenary.identification.settings import IdentificationSettings  # noqa: E402
-from catenary.logs import rule_logger  # noqa: E402
-from catenary.pantograph import load_pantographs  # noqa: E402
+from catenary.config import load_catenary
+from catenary.correction import CorrectionSettings
+from catenary.diagnosis.inputs import measuring_pass_of
+from catenary.diagnosis.outputs import DiagnosisPaths, write_diagnosis
+from catenary.diagnosis.runner import diagnose
+from catenary.diagnosis.settings import DiagnosisSettings
+from catenary.identification.report import read_corrected
+from catenary.identification.settings import IdentificationSettings
+from catenary.logs import rule_logger
+from catenary.pantograph import load_pantographs
 
 log = rule_logger("diagnose", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -34,6 +32,6 @@ log.info("measuring pass: %.1f km/h, declared force %.1f N; ∂W/∂F at the dro
          measuring.force_n, " ".join(f"{1e3 * g:.3f}" for g in measuring.influence_m_n))
 run = diagnose(span_type, catenary, data.w_m, identification, settings, mast_pairs=data.mast_pairs,
                force_influence_m_n=measuring.influence_m_n, declared_force_n=measuring.force_n,
-               workers=snakemake.threads, log=log)
+               workers=snakemake.threads, n_left_out=len(data.left_out), log=log)
 write_diagnosis(run, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent))
 log.info("%s: named %s in %.0f s", span_type.name, run.named or "nothing", run.time_s)

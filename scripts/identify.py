@@ -7,7 +7,7 @@ from catenary.identification.outputs import IdentificationPaths, write_identific
 from catenary.identification.report import read_corrected, run_identification
 from catenary.identification.settings import IdentificationSettings
 from catenary.logs import rule_logger
-from catenary.parquet import config_hash
+from catenary.parquet import settings_hash
 
 log = rule_logger("identify", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -24,7 +24,7 @@ out = snakemake.output
 write_identification(run, IdentificationPaths(s_opt=Path(out.s_opt), trace=Path(out.trace),
                                               estimators=Path(out.estimators), normality=Path(out.normality),
                                               band=Path(out.band), report=Path(out.report)),
-                     config_hash=config_hash(snakemake.config), source=Path(snakemake.input.corrected).name)
+                     config_hash=settings_hash(snakemake.config), source=Path(snakemake.input.corrected).name)
 for row in run.result.table_rows():
     log.info("s_opt %-22s mu %.6g ± %.3g  sigma %.4g ± %.3g%s", row["parameter"], row["mu"], row["mu_se"],
              row["sigma"], row["sigma_se"], "  (mean fixed)" if row["mu_fixed"] else "")

@@ -8,7 +8,7 @@ from catenary.dropper_table import nominal_dropper_lengths
 from catenary.inversion import (converged_spans, dropper_statistics, droppers_schema, invert_spans,
                                 min_correlation, pearson_figure, pearson_matrix, w_columns)
 from catenary.logs import rule_logger
-from catenary.parquet import config_hash, read_table, write_table
+from catenary.parquet import read_table, settings_hash, write_table
 
 log = rule_logger("invert", snakemake.log[0])
 p = snakemake.params.inversion
@@ -26,7 +26,7 @@ log.info("held fixed: T_MW = %.1f N, ΔH = %.4f m; %d spans inverted, %d left ou
 for row in result.left_out.itertuples():
     log.warning("left out %s: %s", row.span_id, row.reason)
 write_table(result.table(), snakemake.output.droppers, droppers_schema(n),
-            config_hash=config_hash(snakemake.config), kind=f"inversion_droppers:{span_type.name}")
+            config_hash=settings_hash(snakemake.config), kind=f"inversion_droppers:{span_type.name}")
 table = dropper_statistics(result.dropper_lengths_m, nominal_dropper_lengths(span_type, catenary).dropper_lengths_m)
 table.to_csv(snakemake.output.table1, index=False, float_format="%.6f")
 corr = pearson_matrix(result.dropper_lengths_m)

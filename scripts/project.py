@@ -5,7 +5,7 @@ from pathlib import Path
 from catenary.config import load_catenary
 from catenary.errors import InputError
 from catenary.logs import rule_logger
-from catenary.parquet import config_hash, read_table
+from catenary.parquet import read_table, settings_hash
 from catenary.projection import ProjectionSettings, project, write_projection
 
 log = rule_logger("project", snakemake.log[0])
@@ -22,5 +22,5 @@ if result.n_used == 0:
         f"{snakemake.config.get('masts') or snakemake.input.masts}: the projection kept 0 of "
         f"{len(result.report)} span(s) ({reasons or 'no span between two masts'}); expected a recording "
         "that covers the masts' chainages (same origin, metres)")
-write_projection(result, Path(snakemake.output.report).parent, config_hash=config_hash(snakemake.config),
+write_projection(result, Path(snakemake.output.report).parent, config_hash=settings_hash(snakemake.config),
                  span_types=snakemake.params.span_types, catenary=catenary)

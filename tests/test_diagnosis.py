@@ -215,3 +215,15 @@ def test_spans_without_a_missing_effect_give_none_detected(catenary, n2):
     run = diagnose(n2, catenary, data, IDENT, SETTINGS, workers=2)
     assert [s.verdict for s in run.steps] == ["none_detected"]
     assert all(c.p_adjusted >= SETTINGS.level for c in run.steps[0].candidates)
+
+
+def test_too_few_spans_are_refused_before_any_fit(catenary, n2):
+    # the paper's first model has 12 parameters (10 σ, T_MW and ΔH means): 2 spans cannot determine
+    # them; the diagnosis refuses as the identification does, naming the spans lost upstream
+    from catenary.errors import InputError
+
+    sampler = make_sampler(n2, catenary, IDENT, SETTINGS, ())
+    means, sigmas = _laws(sampler)
+    data = simulate_spans(sampler, means, sigmas, None, 2, seed=3, noise_std_m=0.0006)
+    with pytest.raises(InputError, match=r"span type N2: 2 measured span\(s\) \(13 more left out.*for 12 identified"):
+        diagnose(n2, catenary, data, IDENT, SETTINGS, n_left_out=13)

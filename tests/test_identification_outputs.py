@@ -366,7 +366,7 @@ def test_too_few_spans_are_refused_and_few_spans_warned_about(catenary, n2, data
     # any sampling, naming the counts and the settings to change; 13–38 spans (< 3 per
     # parameter) pass with a warning.
     from catenary.errors import InputError
-    from catenary.identification.report import _check_span_count
+    from catenary.identification.report import check_span_count
 
     settings = IdentificationSettings.from_mapping(SMALL)
     with pytest.raises(InputError, match=r"span type N2: 12 measured span\(s\) for 13 identified parameters; "
@@ -375,7 +375,12 @@ def test_too_few_spans_are_refused_and_few_spans_warned_about(catenary, n2, data
     import logging
     log = logging.getLogger("test_span_count")
     with caplog.at_level("WARNING"):
-        _check_span_count("N2", 20, 13, log)
-        _check_span_count("N2", 39, 13, log)
+        check_span_count("N2", 20, 13, log)
+        check_span_count("N2", 39, 13, log)
     warnings = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert len(warnings) == 1 and "20 spans for 13 identified parameters" in warnings[0]
+    # spans lost upstream are named as the reason (a hand-made recording whose correction did not
+    # converge left 2 of 15 spans: the refusal must point at the correction, not the recording)
+    with pytest.raises(InputError, match=r"2 measured span\(s\) \(13 more left out because their correction "
+                                         r"did not converge"):
+        check_span_count("N2", 2, 13, log, n_left_out=13)

@@ -10,7 +10,7 @@ import pytest
 
 import catenary
 from catenary.errors import InputError
-from catenary.parquet import config_hash, read_metadata, read_table, unit_of, write_table
+from catenary.parquet import config_hash, read_metadata, read_table, settings_hash, unit_of, write_table
 from catenary.recording import (MASTS_SCHEMA, RECORDING_SCHEMA, read_masts, read_recording, validate_masts,
                                 validate_recording, write_masts, write_recording)
 
@@ -49,6 +49,14 @@ def test_config_hash_is_canonical():
     b = config_hash({"a": {"x": 1.0, "y": "s"}, "b": (1, 2.5)})
     assert a == b and len(a) == 64
     assert config_hash({"a": 1}) != config_hash({"a": 2})
+
+
+def test_settings_hash_ignores_only_the_results_folder():
+    # a local run and a cluster run of the same settings into two folders write identical tables
+    local = {"results": "results/ci", "recording": "r.parquet", "correction": {"tolerance_m": 0.001}}
+    assert settings_hash(local) == settings_hash({**local, "results": "results/cluster"})
+    assert settings_hash(local) != settings_hash({**local, "correction": {"tolerance_m": 0.002}})
+    assert settings_hash(local) != settings_hash({**local, "recording": "other.parquet"})
 
 
 def test_parquet_bytes_are_deterministic(tmp_path):

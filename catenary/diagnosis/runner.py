@@ -36,6 +36,7 @@ from ..config import Catenary, SpanType
 from ..identification.design import MESSENGER_TENSION, design_dimension, draw_unit_design
 from ..identification.fit import ParameterBox, messenger_tension_bounds_n
 from ..identification.likelihood import Likelihood
+from ..identification.report import check_span_count
 from ..identification.settings import IdentificationSettings
 from ..normality import henze_zirkler
 from .candidates import CANDIDATES
@@ -438,7 +439,7 @@ def _verdict(tests: list[CandidateTest], level: float, margin: float) -> tuple[s
 def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, identification: IdentificationSettings,
              settings: DiagnosisSettings, *, mast_pairs: np.ndarray | None = None,
              force_influence_m_n: np.ndarray | None = None, declared_force_n: float = 36.0, workers: int = 1,
-             log: logging.Logger | None = None) -> DiagnosisRun:
+             n_left_out: int = 0, log: logging.Logger | None = None) -> DiagnosisRun:
     """Run the forward selection of the module docstring on the measured W of one span type.
 
     Parameters
@@ -458,6 +459,9 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
         The measuring force the correction assumed [N].
     workers : int
         Processes testing the candidates of a step side by side (the result is the same).
+    n_left_out : int
+        Spans of the type left out upstream (correction not converged), for the refusal message
+        when too few spans remain (:func:`catenary.identification.report.check_span_count`).
     """
     log = log or _LOG
     t0 = time.perf_counter()
@@ -468,6 +472,7 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
     ctx = _Context(span_type, catenary, data, base, settings, force_influence_m_n, declared_force_n,
                    (*settings.start_effects, *candidates), mast_pairs)
     problem = ctx.problem(tuple(settings.start_effects))
+    check_span_count(span_type.name, data.shape[0], len(problem.names), log, n_left_out=n_left_out)
     fit = refit(problem, np.zeros(len(problem.names)), ctx.box, base_step=base.initial_step, effect_step=1.0,
                 max_evaluations=base.max_evaluations)
     start_fit = fit

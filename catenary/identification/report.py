@@ -325,15 +325,19 @@ class IdentificationRun:
 COMFORTABLE_SPANS_PER_PARAMETER = 3
 
 
-def _check_span_count(name: str, n_spans: int, n_parameters: int, log) -> None:
+def check_span_count(name: str, n_spans: int, n_parameters: int, log, *, n_left_out: int = 0) -> None:
     """Refuse fewer spans than identified parameters; warn below a comfortable number.
 
     Each span gives one 9-vector W; the σ of an input is seen only through the spread of W over
     spans, so fewer spans than parameters leaves the maximum of J undetermined in some direction.
+    ``n_left_out`` spans of the type were left out upstream (correction not converged): the
+    message says so, since they, not the recording, are then the reason.
     """
     if n_spans < n_parameters:
+        upstream = (f" ({n_left_out} more left out because their correction did not converge: see `reason` "
+                    "in corrected.parquet)" if n_left_out else "")
         raise InputError(
-            f"span type {name}: {n_spans} measured span(s) for {n_parameters} identified parameters; "
+            f"span type {name}: {n_spans} measured span(s){upstream} for {n_parameters} identified parameters; "
             f"expected at least {n_parameters} spans (one per parameter), better "
             f"{COMFORTABLE_SPANS_PER_PARAMETER * n_parameters}: add spans or identify fewer parameters "
             "(identification.random_inputs, identification.free_means)")
@@ -390,7 +394,8 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     log.info("%s: %d spans, J(s0) = %.3f (N = %d, %s, %s estimator, seed %d)", span_type.name, data.shape[0],
              j_start, s.n_samples, s.design, s.estimator, s.seed)
     random = s.random_names(n)
-    _check_span_count(span_type.name, data.shape[0], len(random) + len(s.free_mean_names(n)), log)
+    check_span_count(span_type.name, data.shape[0], len(random) + len(s.free_mean_names(n)), log,
+                     n_left_out=len(left_out or []))
     covariance = s.standard_errors if mast_pairs is not None else "observed_information"
     if s.standard_errors == "sandwich" and mast_pairs is None:
         log.warning("%s: the data do not say which spans share a mast (no section_id, start_chainage_m, "

@@ -18,6 +18,8 @@ rule contact_force_batch:
         contact_force=span_type_settings("contact_force"),
     log:
         f"{RESULTS}/logs/contact_force_batch/{{span_type}}_{{case}}_{{batch}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/contact_force_batch/{{span_type}}_{{case}}_{{batch}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -48,6 +50,8 @@ rule contact_force:
         folder=lambda wc: f"{RESULTS}/{wc.span_type}/contact_force",
     log:
         f"{RESULTS}/logs/contact_force/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/contact_force/{{span_type}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:

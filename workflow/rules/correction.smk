@@ -18,6 +18,8 @@ rule correct_section:
         span_types=SPAN_TYPES,
     log:
         f"{RESULTS}/logs/correct_section/{{section_id}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/correct_section/{{section_id}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -40,6 +42,8 @@ rule correction:
         span_types=SPAN_TYPES,
     log:
         f"{RESULTS}/logs/correction.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/correction.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -58,6 +62,8 @@ rule correction_check:
         span_types=SPAN_TYPES,
     log:
         f"{RESULTS}/logs/correction_check.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/correction_check.tsv",
     conda:
         "../envs/catenary.yaml"
     script:

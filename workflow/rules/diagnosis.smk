@@ -26,6 +26,8 @@ rule diagnose:
     threads: 2
     log:
         f"{RESULTS}/logs/diagnose/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/diagnose/{{span_type}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -45,6 +47,8 @@ rule diagnosis_check:
         span_types=SPAN_TYPES,
     log:
         f"{RESULTS}/logs/diagnosis_check.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/diagnosis_check.tsv",
     conda:
         "../envs/catenary.yaml"
     script:

@@ -10,6 +10,8 @@ rule dynamics:
         dynamics=config["dynamics"],
     log:
         f"{RESULTS}/logs/dynamics/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/dynamics/{{span_type}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:

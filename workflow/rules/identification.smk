@@ -19,6 +19,8 @@ rule identify:
         identification=span_type_settings("identification"),
     log:
         f"{RESULTS}/logs/identify/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/identify/{{span_type}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -37,6 +39,8 @@ rule identification_check:
         span_types=SPAN_TYPES,
     log:
         f"{RESULTS}/logs/identification_check.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/identification_check.tsv",
     conda:
         "../envs/catenary.yaml"
     script:

@@ -14,6 +14,8 @@ rule invert:
         inversion=config["inversion"],
     log:
         f"{RESULTS}/logs/invert/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/invert/{{span_type}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -32,6 +34,8 @@ rule tension_impact:
         tension_impact=config["tension_impact"],
     log:
         f"{RESULTS}/logs/tension_impact/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/tension_impact/{{span_type}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:

@@ -9,6 +9,8 @@ rule campaign_section:
         truth=f"{RESULTS}/campaign/sections/{{section}}_truth.parquet",
     log:
         f"{RESULTS}/logs/campaign_section/{{section}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/campaign_section/{{section}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -29,6 +31,8 @@ rule campaign:
         truth=f"{RESULTS}/campaign/truth.parquet",
     log:
         f"{RESULTS}/logs/campaign.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/campaign.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -45,6 +49,8 @@ rule ingest:
         masts=f"{RESULTS}/ingest/masts.parquet",
     log:
         f"{RESULTS}/logs/ingest.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/ingest.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -65,6 +71,8 @@ checkpoint project:
         span_types=SPAN_TYPES,
     log:
         f"{RESULTS}/logs/project.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/project.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -82,6 +90,8 @@ rule projection_check:
         span_types=SPAN_TYPES,
     log:
         f"{RESULTS}/logs/projection_check.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/projection_check.tsv",
     conda:
         "../envs/catenary.yaml"
     script:

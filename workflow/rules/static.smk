@@ -6,6 +6,8 @@ rule dropper_table:
         table=f"{RESULTS}/{{span_type}}/nominal/dropper_table.csv",
     log:
         f"{RESULTS}/logs/dropper_table/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/dropper_table/{{span_type}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -25,6 +27,8 @@ rule sensitivity:
         n_points=config["sensitivity"]["n_points"],
     log:
         f"{RESULTS}/logs/sensitivity/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/sensitivity/{{span_type}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
