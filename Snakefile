@@ -1,6 +1,4 @@
 # Catenary geometry identification workflow (see README.md).
-import os
-
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version
 
@@ -11,14 +9,6 @@ min_version("9.0")
 
 
 configfile: "config/config.yaml"
-
-
-# One BLAS/OpenMP thread per job: --cores (and a cluster's cpus_per_task) count each job's
-# `threads`, and the one rule that parallelises (diagnose) does it with `threads` worker processes.
-# Set here, the variables reach every rule script, locally and in every cluster job (it re-reads
-# this file before running its rule).
-for _blas_threads in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ[_blas_threads] = "1"
 
 
 # The package's check of the shipped schema (workflow/schemas/config.schema.yaml links to it): one

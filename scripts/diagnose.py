@@ -1,20 +1,29 @@
 """Rule diagnose: locate, name, add the missing effects of one span type's identification model.
 
-The refits run in ``threads`` worker processes of one BLAS thread each (the Snakefile sets it).
+The refits run in ``threads`` worker processes. Snakemake sets OPENBLAS_NUM_THREADS and its kin
+to the job's ``threads`` (2); each process must use one BLAS thread instead, or the 3 processes
+start 6 spinning threads on 2 cores (measured: the small profile's diagnosis 4× slower), so
+they are reset here, before NumPy loads.
 """
 
-from pathlib import Path
+import os
 
-from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings
-from catenary.diagnosis.inputs import measuring_pass_of
-from catenary.diagnosis.outputs import DiagnosisPaths, write_diagnosis
-from catenary.diagnosis.runner import diagnose
-from catenary.diagnosis.settings import DiagnosisSettings
-from catenary.identification.report import read_corrected
-from catenary.identification.settings import IdentificationSettings
-from catenary.logs import rule_logger
-from catenary.pantograph import load_pantographs
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "GOTO_NUM_THREADS",
+             "NUMEXPR_NUM_THREADS", "VECLIB_MAXIMUM_THREADS"):
+    os.environ[_var] = "1"
+
+from pathlib import Path  # noqa: E402
+
+from catenary.config import load_catenary  # noqa: E402
+from catenary.correction import CorrectionSettings  # noqa: E402
+from catenary.diagnosis.inputs import measuring_pass_of  # noqa: E402
+from catenary.diagnosis.outputs import DiagnosisPaths, write_diagnosis  # noqa: E402
+from catenary.diagnosis.runner import diagnose  # noqa: E402
+from catenary.diagnosis.settings import DiagnosisSettings  # noqa: E402
+from catenary.identification.report import read_corrected  # noqa: E402
+from catenary.identification.settings import IdentificationSettings  # noqa: E402
+from catenary.logs import rule_logger  # noqa: E402
+from catenary.pantograph import load_pantographs  # noqa: E402
 
 log = rule_logger("diagnose", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

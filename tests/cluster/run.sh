@@ -53,6 +53,10 @@ step "local run of the small profile (reference)"
 $BIN/snakemake --workflow-profile workflow/profiles/default --cores 2 --quiet rules \
     --configfile config/test.yaml -- $(targets $LOCAL)
 
+step "Slurm and munge from Debian's packages"
+install_slurm
+slurmctld -V
+
 step "the EXIT trap on a failure: a subshell starts a cluster and fails"
 (
     trap 'stop_cluster >/dev/null 2>&1' EXIT
