@@ -1,23 +1,26 @@
 """The cluster test's own checks (tests/cluster/): they must fail when what they look for is absent."""
 
 import importlib.util
-from pathlib import Path
+import re
 
 import pandas as pd
 import pytest
 
-HERE = Path(__file__).parent / "cluster"
+from .conftest import ROOT
 
 
-def _load(name):
-    spec = importlib.util.spec_from_file_location(name, HERE / f"{name}.py")
+def _load(relative_path):
+    """A script of the repository (not a package module) imported by its path."""
+    path = ROOT / relative_path
+    spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
-check_failure = _load("check_failure")
-compare = _load("compare")
+check_failure = _load("tests/cluster/check_failure.py")
+compare = _load("tests/cluster/compare.py")
+cluster_resources = _load("benchmarks/cluster_resources.py")
 
 
 def _snakemake_error(results, section, slurm_log):
@@ -83,21 +86,11 @@ def test_compare_tells_metadata_from_values_and_masks_only_report_times(tmp_path
     assert "MISSING   missing.csv" in out and "DIFFERENT r.md" in out
 
 
-def _cluster_resources():
-    spec = importlib.util.spec_from_file_location("cluster_resources", ROOT_DIR / "benchmarks" / "cluster_resources.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-ROOT_DIR = Path(__file__).resolve().parents[1]
-
-
 def test_slurm_profile_covers_the_measured_default_run():
     # workflow/profiles/slurm/measured.csv: peak RSS and longest wall time per rule of the default
     # run (benchmarks/cluster_resources.py --write); each request must cover them with the profile's
     # stated margins (memory 1.5 ×, time 3 ×), or a job would be killed on a cluster like this one
-    resources = _cluster_resources()
+    resources = cluster_resources
     measured = pd.read_csv(resources.MEASURED)
     assert {"correct_section", "identify", "diagnose", "contact_force_batch", "campaign_section"} <= set(measured["rule"])
     _, short = resources.table(measured, resources.requests())
@@ -105,16 +98,15 @@ def test_slurm_profile_covers_the_measured_default_run():
 
 
 def test_slurm_cpus_follow_each_rules_threads():
-    # cpus_per_task must equal the rule's `threads` (BLAS is pinned to one thread per process)
-    import re
-
+    # cpus_per_task must equal the rule's `threads` (Snakemake sets the BLAS threads to `threads`;
+    # diagnose resets them to 1 in each of its `threads` processes)
     threads = {}
-    for smk in (ROOT_DIR / "workflow" / "rules").glob("*.smk"):
+    for smk in (ROOT / "workflow" / "rules").glob("*.smk"):
         for block in re.split(r"^(?=rule |checkpoint )", smk.read_text(), flags=re.MULTILINE)[1:]:
             name = re.match(r"(?:rule|checkpoint) (\w+):", block).group(1)
             found = re.search(r"^    threads: (\d+)", block, flags=re.MULTILINE)
             threads[name] = int(found.group(1)) if found else 1
-    asked = _cluster_resources().requests()
+    asked = cluster_resources.requests()
     assert threads["diagnose"] == 2
     for rule, n in threads.items():
         assert asked.get(rule, asked["*"])["cpus_per_task"] == n, rule
