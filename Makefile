@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 CORES ?= 2
 SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 
-.PHONY: setup run own-data paper test test-slow test-cluster bench validate clean
+.PHONY: setup run own-data paper unlock test test-slow test-cluster bench validate clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,17 +18,24 @@ $(STAMP): pyproject.toml
 
 setup: $(STAMP)
 
+# Ends with the HTML report (every figure and table, with captions): results/report.html.
 run: setup
-	$(SMK) --cores $(CORES) --configfile config/config.yaml
+	$(SMK) --cores $(CORES) --configfile config/config.yaml --report results/report.html --report-after-run
 
 # Your recording only (ingest → … → identification → diagnosis): make own-data OWN=config/my_line.yaml
 OWN ?= config/own_data.yaml
 own-data: setup
-	$(SMK) --cores $(CORES) --configfile $(OWN) -- measurements
+	$(SMK) --cores $(CORES) --configfile $(OWN) --report-after-run --report \
+	  "$$($(BIN)/python -c 'import sys, yaml; print(yaml.safe_load(open(sys.argv[1])).get("results", "results"))' $(OWN))/report.html" \
+	  -- measurements
 
 # The paper-reproduction simulations only (dropper table, Figs 2–4 and 6, dynamics)
 paper: setup
 	$(SMK) --cores $(CORES) --configfile config/config.yaml -- paper
+
+# After a run killed hard (closed terminal, power loss): lift Snakemake's lock on the folder.
+unlock: setup
+	$(SMK) --unlock --configfile config/config.yaml
 
 # The small profile runs before pytest: the `pipeline` tests check its results against its truth.
 # pytest runs last so that its summary is the closing line.
@@ -36,7 +43,8 @@ test: setup
 	$(SMK) --lint
 	$(SMK) --dry-run --quiet --configfile config/config.yaml
 	$(SMK) --dry-run --quiet --configfile config/test.yaml
-	$(SMK) --cores $(CORES) --configfile config/test.yaml
+	$(SMK) --cores $(CORES) --configfile config/test.yaml --report results/ci/report.html --report-after-run
+	bash tests/install_browser.sh
 	$(BIN)/python -m pytest -m 'not slow and not validation'
 
 # Calibration of the standard errors and convergence of the dynamic model (CI runs it after make test).

@@ -1,4 +1,7 @@
 # Catenary geometry identification workflow (see README.md).
+import os
+import sys
+
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version
 
@@ -30,6 +33,17 @@ include: "workflow/rules/inversion.smk"
 include: "workflow/rules/identification.smk"
 include: "workflow/rules/diagnosis.smk"
 include: "workflow/rules/contact_force.smk"
+include: "workflow/rules/report.smk"
+
+
+# The HTML report (make run: `--report results/report.html --report-after-run`; after the run,
+# Snakemake knows the jobs behind the projection checkpoint, which a separate `--report` call
+# misses): its opening panel is this run's front page (rule front_page, written before the report),
+# or the method alone when the run writes no front page (`make paper`).
+_WRITES_FRONT_PAGE = os.path.exists(FRONT_PAGE) or "--report-after-run" in sys.argv
+
+
+report: os.path.abspath(FRONT_PAGE) if _WRITES_FRONT_PAGE else "workflow/report/workflow.rst"
 
 
 rule all:

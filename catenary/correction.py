@@ -34,6 +34,7 @@ from .errors import ConvergenceError, InputError
 from .measuring import measuring_pass
 from .schema import check
 from .pantograph import Pantograph
+from .progress import Progress
 from .section import Section
 from .static import StaticModel
 
@@ -184,7 +185,7 @@ def run_section(rows: pd.DataFrame, catenary: Catenary, dropper_lengths_m: np.nd
 
 
 def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, speed_m_s: float,
-                settings: CorrectionSettings) -> RunCorrection:
+                settings: CorrectionSettings, log=None) -> RunCorrection:
     """Correct one run of consecutive spans (module docstring).
 
     Parameters
@@ -198,6 +199,9 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
     speed_m_s : float
         Measuring speed [m/s].
     settings : CorrectionSettings
+    log : logging.Logger, optional
+        Where each pass's progress goes (gap, spans within tolerance, elapsed time, estimate of
+        the time left against the maximum number of passes).
 
     Returns
     -------
@@ -217,6 +221,8 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
     if settings.mode == "dynamic" and settings.quasi_static_start:
         # Cheap quasi-static passes remove most of the gap before the dynamic ones.
         stages.insert(0, ("quasi_static", 0.1 * settings.tolerance_m))
+    progress = Progress(log, f"section {rows['section_id'].iloc[0]} correction", len(stages) * settings.max_iterations,
+                        "passes", bound=True, every_s=0.0)
     try:
         for mode, tolerance in stages:
             for _ in range(settings.max_iterations):
@@ -232,6 +238,8 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
                 gap_w = gap_d - section.chord_at_droppers(gap_m)
                 norms = np.sqrt(np.bincount(section.dropper_span, gap_w ** 2, minlength=len(rows)))
                 history.append((mode, norms))
+                progress.update(len(history), f"{mode} pass, largest gap {1e3 * _nanmax(norms):.3f} mm, "
+                                f"{int(np.sum(norms < tolerance))} of {len(rows)} spans within {1e3 * tolerance:.2f} mm")
                 if np.all(norms < tolerance):
                     break
     except ConvergenceError as exc:
@@ -313,7 +321,7 @@ def correct_spans(spans: pd.DataFrame, recording: pd.DataFrame, catenary: Catena
     rows_out, history_out = [], []
     for rows in consecutive_runs(spans):
         speed, force = measuring_conditions(recording, rows, settings)
-        result = correct_run(rows, catenary, pantograph.with_static_force(force), speed, settings)
+        result = correct_run(rows, catenary, pantograph.with_static_force(force), speed, settings, log=log)
         converged = np.isfinite(result.gap_norm_m) & (result.gap_norm_m < settings.tolerance_m)
         passes = _passes_to_converge(result.history, settings, len(rows))
         for k in range(len(rows)):

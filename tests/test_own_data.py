@@ -34,7 +34,8 @@ def test_shipped_example_runs_the_measurement_pipeline_for_its_span_type(tmp_pat
     snakemake = ROOT / ".venv" / "bin" / "snakemake"
     run = subprocess.run([str(snakemake) if snakemake.exists() else "snakemake",
                           "--workflow-profile", "workflow/profiles/default", "--cores", "2",
-                          "--configfile", "config/test.yaml", str(own), "--", "measurements"],
+                          "--configfile", "config/test.yaml", str(own), "--report", str(results / "report.html"),
+                          "--report-after-run", "--", "measurements"],
                          cwd=ROOT, capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-3000:]
     s_opt = pd.read_csv(results / "N2" / "identification" / "s_opt.csv")
@@ -52,3 +53,6 @@ def test_shipped_example_runs_the_measurement_pipeline_for_its_span_type(tmp_pat
     assert not (results / "N3" / "identification").exists()        # no job for a type without spans
     assert not (results / "N3" / "diagnosis").exists()
     assert not (results / "N2" / "contact_force").exists()          # the study is not part of own-data
+    html_report = (results / "report.html").read_text()             # make own-data's report: N2's results
+    assert f"{results}/N2/identification/band.png" in html_report
+    assert f"{results}/N2/diagnosis/findings.csv" in html_report

@@ -12,7 +12,6 @@ summary of what was drawn: the static geometry in the analysis window
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import pandas as pd
@@ -21,6 +20,7 @@ from ..config import Catenary, SpanType
 from ..contact_statistics import contact_statistics
 from ..dynamics import CatenaryDynamics, run_pantograph
 from ..pantograph import Pantograph
+from ..progress import Progress
 from ..section import Section
 from .draws import draw_section, replicate_seeds
 from .sensitivity import sobol_seeds
@@ -108,8 +108,8 @@ def run_batch(laws: SectionLaws, nominal: Section, span_type: SpanType, catenary
     masts = nominal.mast_chainage_m
     window = (masts[settings.analysis_masts[0]], masts[settings.analysis_masts[1]])
     rows = []
-    t0 = time.perf_counter()
     replicates = list(replicates)
+    progress = Progress(log, f"{case} replicates", len(replicates), "replicates", every_s=0.0)
     for k, r in enumerate(replicates):
         section, _ = draw_section(laws, span_type, catenary, settings.n_spans, replicate_seeds(settings.seed, r, laws))
         ops, runs = run_section(section, catenary, pantograph, settings, speeds_kmh)
@@ -118,11 +118,7 @@ def run_batch(laws: SectionLaws, nominal: Section, span_type: SpanType, catenary
         slack = int(ops.gravity_state.dropper_slack.sum())
         for row in runs:
             rows.append({"case": case, "replicate": int(r), **row, **features, "static_slack_droppers": slack})
-        if log is not None:
-            elapsed = time.perf_counter() - t0
-            log.info("%s replicate %d (%d of %d): σ_F %s N; %.0f s elapsed, ≈ %.0f s left", case, r, k + 1,
-                     len(replicates), ", ".join(f"{x['std_force_n']:.1f}" for x in runs), elapsed,
-                     elapsed / (k + 1) * (len(replicates) - k - 1))
+        progress.update(k + 1, f"replicate {r}: σ_F " + ", ".join(f"{x['std_force_n']:.1f}" for x in runs) + " N")
     return pd.DataFrame(rows)
 
 
@@ -131,14 +127,11 @@ def run_sobol_batch(laws: SectionLaws, span_type: SpanType, catenary: Catenary, 
                     log=None) -> pd.DataFrame:
     """Criteria of the sections of the pick-freeze design's ``rows`` (:mod:`.sensitivity`)."""
     out = []
-    t0 = time.perf_counter()
     rows = list(rows)
+    progress = Progress(log, "Sobol design rows", len(rows), "rows", every_s=0.0)
     for n, k in enumerate(rows):
         section, _ = draw_section(laws, span_type, catenary, settings.n_spans, sobol_seeds(laws, settings, design[k]))
         _, runs = run_section(section, catenary, pantograph, settings, (speed_kmh,))
         out.append({"case": "sobol", "replicate": int(k), **runs[0]})
-        if log is not None:
-            elapsed = time.perf_counter() - t0
-            log.info("design row %d (%d of %d): σ_F %.2f N; %.0f s elapsed, ≈ %.0f s left", k, n + 1, len(rows),
-                     runs[0]["std_force_n"], elapsed, elapsed / (n + 1) * (len(rows) - n - 1))
+        progress.update(n + 1, f"design row {k}: σ_F {runs[0]['std_force_n']:.2f} N")
     return pd.DataFrame(out)

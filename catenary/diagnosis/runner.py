@@ -37,6 +37,7 @@ from ..identification.design import MESSENGER_TENSION, design_dimension, draw_un
 from ..identification.fit import ParameterBox, messenger_tension_bounds_n
 from ..identification.likelihood import Likelihood
 from ..identification.report import check_span_count
+from ..progress import Progress
 from ..identification.settings import IdentificationSettings
 from ..normality import henze_zirkler
 from .candidates import CANDIDATES
@@ -491,14 +492,15 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
                  len(remaining))
         base_moments = _base_moments(ctx, problem, fit.theta)
         results = {}
+        progress = Progress(log, f"{span_type.name} step {k}", len(remaining), "candidates", every_s=0.0)
         for name, (test, new_fit) in zip(remaining, _map_candidates(ctx, problem.effects, fit, base_moments, remaining,
                                                                     workers)):
             results[name] = (test, new_fit)
-            log.info("  %s: Δℓ = %.2f, LR = %.2f (sandwich factor %.2f), p = %.3g (adjusted %.3g), BIC %.1f; %s; "
-                     "%d evaluations, %.1f s (%d of %d candidates, %.0f s elapsed)", name, test.delta_loglik,
-                     test.lr_statistic, test.lr_factor, test.p_value, test.p_adjusted, test.bic,
-                     ", ".join(f"{k} = {v[0]:.4g}" for k, v in test.estimates.items()), test.n_evaluations,
-                     test.time_s, len(results), len(remaining), time.perf_counter() - t0)
+            progress.update(len(results), f"{name}: Δℓ = {test.delta_loglik:.2f}, LR = {test.lr_statistic:.2f} "
+                            f"(sandwich factor {test.lr_factor:.2f}), p = {test.p_value:.3g} (adjusted "
+                            f"{test.p_adjusted:.3g}), BIC {test.bic:.1f}; "
+                            + ", ".join(f"{key} = {v[0]:.4g}" for key, v in test.estimates.items())
+                            + f"; {test.n_evaluations} evaluations, {test.time_s:.1f} s")
         tests = [r[0] for r in results.values()]
         verdict, effect, runner = _verdict(tests, settings.level, settings.bic_margin)
         after = None

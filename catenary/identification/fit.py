@@ -43,6 +43,7 @@ from scipy.optimize import minimize
 
 from ..config import Catenary, SpanType
 from ..fast import FastSpanModel
+from ..progress import Progress
 from .design import (DEFAULT_DESIGN, MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, default_inputs,
                      design_dimension, draw_unit_design)
 from .dependence import robust_covariance, widened_covariance
@@ -151,6 +152,8 @@ class ScaledProblem:
     trace: list = field(default_factory=list)
     recording: bool = True
     n_evaluations: int = 0
+    progress: Progress | None = None
+    best_j: float = -np.inf
 
     def __post_init__(self):
         self.mu0 = np.array([s.mean for s in self.start])
@@ -175,6 +178,10 @@ class ScaledProblem:
         self.n_evaluations += 1
         if self.recording:
             self.trace.append((theta, means, sigmas, value))
+            if self.progress is not None:
+                if np.isfinite(value) and not value <= self.best_j:
+                    self.best_j = value
+                self.progress.update(len(self.trace), f"best J so far {self.best_j:.3f}")
         return value
 
     def log_densities(self, theta: np.ndarray) -> np.ndarray | None:
@@ -282,7 +289,7 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
              method: str = "nelder-mead", box: ParameterBox = ParameterBox(), initial_step: float = 0.5,
              max_evaluations: int = 6000, xtol: float | None = None, ftol: float | None = None,
              standard_errors: bool = True, hessian_step: float = 0.01, mast_pairs: np.ndarray | None = None,
-             covariance: str = "observed_information") -> IdentificationResult:
+             covariance: str = "observed_information", log=None) -> IdentificationResult:
     """Maximise J over the free hyper-parameters, from the laws ``start``.
 
     Parameters
@@ -320,6 +327,8 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
         Where the standard errors come from: the observed information, or the observed
         information with each variance widened by the sandwich where that is wider
         (:func:`.dependence.widened_covariance`; needs ``mast_pairs``).
+    log : logging.Logger, optional
+        Where the optimiser's progress goes (evaluations against the budget, elapsed time).
 
     Returns
     -------
@@ -341,6 +350,7 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
         raise ValueError(f"unknown inputs {sorted(unknown)}; inputs are {names}")
     free_sigmas = tuple(names) if free_sigmas is None else free_sigmas
     problem = ScaledProblem.for_inputs(likelihood, start, free_means, free_sigmas)
+    problem.progress = Progress(log, f"{method} optimiser", max_evaluations, "evaluations", bound=True)
     lo, hi = problem.bounds(box)
     theta0 = np.clip(np.zeros(lo.size), lo, hi)
     t_start = time.perf_counter()

@@ -404,7 +404,7 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     result = identify(lik, start, free_means=s.free_mean_names(n), free_sigmas=random, method=s.method,
                       initial_step=s.initial_step, max_evaluations=s.max_evaluations, xtol=s.xtol, ftol=s.ftol,
                       hessian_step=s.hessian_step, mast_pairs=mast_pairs if covariance == "sandwich" else None,
-                      covariance=covariance)
+                      covariance=covariance, log=log)
     log.info("%s: %s %s after %d evaluations (+%d for the Hessian) in %.1f s: J(s_opt) = %.3f (%s)",
              span_type.name, s.method, "converged" if result.converged else "did NOT converge",
              result.n_evaluations, result.n_hessian_evaluations, result.time_s, result.j_opt, result.message)

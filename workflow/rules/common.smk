@@ -1,3 +1,5 @@
+import os
+
 import yaml
 
 from catenary.schema import check as check_schema
@@ -52,6 +54,39 @@ SPAN_TYPE_SETTINGS = _per_span_type_settings()
 def span_type_settings(block):
     """A `params` function: the `block` settings of the job's span type (global block + overrides)."""
     return lambda wildcards: SPAN_TYPE_SETTINGS[block][wildcards.span_type]
+
+
+# The HTML report (make run ends with `snakemake --report results/report.html`): every final table
+# and figure is flagged with reported(), filed under its span type (or the whole line, or the
+# campaign's validation) and its stage, with a caption from workflow/report/.
+PAPER = "1 Paper reproduction (Figs 2–4, 6, dynamics)"
+PROJECTION = "2 Projection"
+CORRECTION = "3 Dynamic correction"
+INVERSION = "4 Dropper-only inversion (Table 1, Fig. 8)"
+IDENTIFICATION = "5 Identification (Table 2, Figs 7, 10)"
+DIAGNOSIS = "6 Diagnosis"
+CONTACT_FORCE = "7 Contact force"
+LINE = "Whole recording"
+VALIDATION = "Validation against the campaign's truth"
+
+
+def reported(path, caption, stage, title, category="{span_type}"):
+    """``path`` flagged for the report, captioned by workflow/report/``caption``.rst and filed
+    under ``category`` (by default the job's span type) and ``stage``."""
+    return report(path, caption=f"../report/{caption}.rst", category=category, subcategory=stage,
+                  labels={"result": title, "file": os.path.basename(path)})
+
+
+FRONT_PAGE = f"{RESULTS}/report/front_page.rst"
+
+
+def front_page_inputs(wildcards):
+    """s_opt.csv and findings.csv of every measured span type, keyed s_opt_<type>, findings_<type>."""
+    inputs = {}
+    for span_type in measured_span_types():
+        inputs[f"s_opt_{span_type}"] = f"{RESULTS}/{span_type}/identification/s_opt.csv"
+        inputs[f"findings_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/findings.csv"
+    return inputs
 
 
 def _campaign_sections():
@@ -143,7 +178,7 @@ def measured_outputs(wildcards=None, contact_force=True):
     outputs = (inversion_outputs(types) + identification_outputs(types) + diagnosis_outputs(types))
     if contact_force:
         outputs += contact_force_outputs(types)
-    return outputs
+    return outputs + [FRONT_PAGE]
 
 
 def correction_sections(wildcards=None):

@@ -36,8 +36,8 @@ rule correction:
         catenary=config["catenary"],
     output:
         corrected=expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES),
-        convergence=f"{RESULTS}/correction/convergence.csv",
-        summary=f"{RESULTS}/correction/summary.csv",
+        convergence=reported(f"{RESULTS}/correction/convergence.csv", "correction_convergence", CORRECTION, "Convergence per iteration", category=LINE),
+        summary=reported(f"{RESULTS}/correction/summary.csv", "correction_summary", CORRECTION, "Correction per span type", category=LINE),
     params:
         span_types=SPAN_TYPES,
     log:
@@ -57,7 +57,7 @@ rule correction_check:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         truth=f"{RESULTS}/campaign/truth.parquet",
     output:
-        summary=f"{RESULTS}/validation/correction_check.csv",
+        summary=reported(f"{RESULTS}/validation/correction_check.csv", "validation_correction", CORRECTION, "Correction vs truth", category=VALIDATION),
     params:
         span_types=SPAN_TYPES,
     log:

@@ -11,13 +11,13 @@ rule diagnose:
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:
-        findings=f"{RESULTS}/{{span_type}}/diagnosis/findings.csv",
-        candidates=f"{RESULTS}/{{span_type}}/diagnosis/candidates.csv",
+        findings=reported(f"{RESULTS}/{{span_type}}/diagnosis/findings.csv", "findings", DIAGNOSIS, "Findings per step"),
+        candidates=reported(f"{RESULTS}/{{span_type}}/diagnosis/candidates.csv", "candidates", DIAGNOSIS, "Every candidate"),
         steps=f"{RESULTS}/{{span_type}}/diagnosis/steps.json",
-        residuals=f"{RESULTS}/{{span_type}}/diagnosis/residuals.png",
-        eigenvalues=f"{RESULTS}/{{span_type}}/diagnosis/eigenvalues.png",
-        qq=f"{RESULTS}/{{span_type}}/diagnosis/mahalanobis_qq.png",
-        scores=f"{RESULTS}/{{span_type}}/diagnosis/score_screen.png",
+        residuals=reported(f"{RESULTS}/{{span_type}}/diagnosis/residuals.png", "residuals", DIAGNOSIS, "Residuals per dropper"),
+        eigenvalues=reported(f"{RESULTS}/{{span_type}}/diagnosis/eigenvalues.png", "eigenvalues", DIAGNOSIS, "Whitened eigenvalues"),
+        qq=reported(f"{RESULTS}/{{span_type}}/diagnosis/mahalanobis_qq.png", "mahalanobis_qq", DIAGNOSIS, "Mahalanobis QQ"),
+        scores=reported(f"{RESULTS}/{{span_type}}/diagnosis/score_screen.png", "score_screen", DIAGNOSIS, "Score screen"),
         summary=f"{RESULTS}/{{span_type}}/diagnosis/summary.md",
     params:
         identification=span_type_settings("identification"),
@@ -42,7 +42,7 @@ rule diagnosis_check:
         truth=f"{RESULTS}/campaign/truth.parquet",
         catenary=config["catenary"],
     output:
-        summary=f"{RESULTS}/validation/diagnosis_check.csv",
+        summary=reported(f"{RESULTS}/validation/diagnosis_check.csv", "validation_diagnosis", DIAGNOSIS, "Diagnosis vs truth", category=VALIDATION),
     params:
         span_types=SPAN_TYPES,
     log:

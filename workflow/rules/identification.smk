@@ -9,11 +9,11 @@ rule identify:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
         catenary=config["catenary"],
     output:
-        s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
+        s_opt=reported(f"{RESULTS}/{{span_type}}/identification/s_opt.csv", "s_opt", IDENTIFICATION, "Table 2: s_opt"),
         trace=f"{RESULTS}/{{span_type}}/identification/trace.parquet",
-        estimators=f"{RESULTS}/{{span_type}}/identification/estimators.png",
+        estimators=reported(f"{RESULTS}/{{span_type}}/identification/estimators.png", "estimators", IDENTIFICATION, "Fig. 7: estimators"),
         normality=f"{RESULTS}/{{span_type}}/identification/normality.json",
-        band=f"{RESULTS}/{{span_type}}/identification/band.png",
+        band=reported(f"{RESULTS}/{{span_type}}/identification/band.png", "band", IDENTIFICATION, "Fig. 10: 98 % band"),
         report=f"{RESULTS}/{{span_type}}/identification/identification.md",
     params:
         identification=span_type_settings("identification"),
@@ -34,7 +34,7 @@ rule identification_check:
         corrected=expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES),
         truth=f"{RESULTS}/campaign/truth.parquet",
     output:
-        summary=f"{RESULTS}/validation/identification_check.csv",
+        summary=reported(f"{RESULTS}/validation/identification_check.csv", "validation_identification", IDENTIFICATION, "Identification vs truth", category=VALIDATION),
     params:
         span_types=SPAN_TYPES,
     log:

@@ -65,7 +65,7 @@ checkpoint project:
         catenary=config["catenary"],
     output:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
-        report=f"{RESULTS}/spans_report.csv",
+        report=reported(f"{RESULTS}/spans_report.csv", "spans_report", PROJECTION, "Spans used and rejected", category=LINE),
     params:
         projection=config["projection"],
         span_types=SPAN_TYPES,
@@ -85,7 +85,7 @@ rule projection_check:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         truth=f"{RESULTS}/campaign/truth.parquet",
     output:
-        summary=f"{RESULTS}/validation/projection_round_trip.csv",
+        summary=reported(f"{RESULTS}/validation/projection_round_trip.csv", "validation_projection", PROJECTION, "Projection vs truth", category=VALIDATION),
     params:
         span_types=SPAN_TYPES,
     log:

@@ -1,0 +1,145 @@
+"""The front page of the HTML report: per span type, what a reader asks first.
+
+``make run`` ends with ``snakemake --report results/report.html``; the report's opening panel is
+the reStructuredText this module writes (rule ``front_page``): the method in a few lines (from
+``workflow/report/workflow.rst``), then per span type the spans used and rejected, the dynamic
+correction's convergence, the paper's Table 2 analogue with standard errors and the diagnosis'
+verdict at each step. It only reads the pipeline's own outputs.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pandas as pd
+
+# Snakemake renders the page with Jinja before docutils: no text of ours may hold Jinja markup.
+_JINJA = ("{{", "}}", "{%", "%}", "{#", "#}")
+
+
+def _number(value: float, digits: int = 4) -> str:
+    """``value`` with ``digits`` significant digits, "–" for a missing value."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "–"
+    return f"{float(value):.{digits}g}"
+
+
+def _table(header: list[str], rows: list[list[str]]) -> list[str]:
+    """An RST list-table."""
+    lines = [".. list-table::", "   :header-rows: 1", ""]
+    for row in [header] + rows:
+        lines.append(f"   * - {row[0]}")
+        lines.extend(f"     - {cell}" for cell in row[1:])
+    return lines + [""]
+
+
+def _heading(text: str, mark: str) -> list[str]:
+    return [text, mark * len(text), ""]
+
+
+def spans_lines(spans_report: pd.DataFrame, span_type: str) -> list[str]:
+    """Spans of ``span_type`` used and rejected, with the count of each rejection reason."""
+    rows = spans_report[spans_report["span_type"] == span_type]
+    used = int((rows["status"] == "used").sum())
+    rejected = rows[rows["status"] != "used"]
+    text = f"**Spans:** {used} used, {len(rejected)} rejected"
+    if len(rejected):
+        reasons = rejected["reason"].fillna("no reason given").value_counts()
+        text += " (" + "; ".join(f"{n} × {reason}" for reason, n in reasons.items()) + ")"
+    return [text + ".", ""]
+
+
+def correction_lines(summary: pd.DataFrame, span_type: str) -> list[str]:
+    """The correction's convergence for ``span_type``."""
+    rows = summary[summary["span_type"] == span_type]
+    if rows.empty:
+        return ["**Dynamic correction:** no span of this type was corrected.", ""]
+    r = rows.iloc[0]
+    return [f"**Dynamic correction:** {int(r.n_converged)} of {int(r.n_spans)} spans converged, "
+            f"{_number(r.converged_within_3_percent, 3)} % within 3 passes, median {_number(r.median_iterations, 2)} "
+            f"passes, largest final gap {_number(1e3 * r.max_gap_norm_m, 3)} mm.", ""]
+
+
+def identification_lines(s_opt: pd.DataFrame) -> list[str]:
+    """The Table 2 analogue: μ and σ of every identified input with their standard errors."""
+    status = sorted(set(s_opt["status"].astype(str)))
+    converged = bool(s_opt["converged"].astype(bool).all())
+    lines = [f"**Identification (Table 2 analogue):** optimiser {'converged' if converged else 'NOT converged'}, "
+             f"status {', '.join(status)}. Values in SI units (lengths [m], tension [N]); the dropper "
+             "means are held at the nominal table unless configured free.", ""]
+    rows = []
+    for r in s_opt.itertuples():
+        fixed = bool(getattr(r, "mu_fixed", False))
+        rows.append([r.parameter, _number(r.mu, 6), "held fixed" if fixed else _number(r.mu_se, 3),
+                     _number(r.sigma, 4), _number(r.sigma_se, 3)])
+    return lines + _table(["input", "μ", "s.e. of μ", "σ", "s.e. of σ"], rows)
+
+
+def diagnosis_lines(findings: pd.DataFrame | None) -> list[str]:
+    """The diagnosis' verdict at each step, with the named effect's parameters."""
+    if findings is None:
+        return ["**Diagnosis:** not run for this span type.", ""]
+    lines = ["**Diagnosis (missing physics):**", ""]
+    for r in findings.itertuples():
+        if r.verdict == "named":
+            params = json.loads(r.parameters) if isinstance(r.parameters, str) and r.parameters else {}
+            sizes = ", ".join(f"{k} = {_number(v[0])} ± {_number(v[1], 2)}" for k, v in params.items())
+            text = (f"step {r.step}: **{r.effect}** named (p = {_number(r.p_value, 2)}, runner-up {r.runner_up}"
+                    f"{'; ' + sizes if sizes else ''})")
+        elif r.verdict == "ambiguous":
+            text = (f"step {r.step}: ambiguous between **{r.effect}** and **{r.runner_up}** "
+                    f"(p = {_number(r.p_value, 2)}): the data cannot tell them apart")
+        else:
+            text = f"step {r.step}: no missing effect detected"
+        lines.append(f"- {text}")
+    return lines + [""]
+
+
+def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.DataFrame,
+               s_opt: dict[str, pd.DataFrame], findings: dict[str, pd.DataFrame | None]) -> str:
+    """The report's front page (reStructuredText).
+
+    Parameters
+    ----------
+    intro : str
+        The method in a few lines (``workflow/report/workflow.rst``).
+    spans_report, correction_summary : DataFrame
+        ``spans_report.csv`` and ``correction/summary.csv``.
+    s_opt, findings : dict
+        Per measured span type: its ``s_opt.csv`` and its ``diagnosis/findings.csv`` (None when
+        the diagnosis was not part of the run).
+    """
+    lines = [intro.rstrip(), ""]
+    lines += _heading("Summary per span type", "-")
+    n_used = int((spans_report["status"] == "used").sum())
+    lines += [f"The recording held {len(spans_report)} spans: {n_used} used, {len(spans_report) - n_used} "
+              "rejected (every rejection and its reason: *Whole recording* › *2 Projection*).", ""]
+    for span_type in s_opt:
+        lines += _heading(span_type, "~")
+        lines += spans_lines(spans_report, span_type)
+        lines += correction_lines(correction_summary, span_type)
+        lines += identification_lines(s_opt[span_type])
+        lines += diagnosis_lines(findings.get(span_type))
+    text = "\n".join(lines) + "\n"
+    for mark in _JINJA:
+        text = text.replace(mark, " ".join(mark))
+    return text
+
+
+def write_front_page(path: str | Path, intro_path: str | Path, spans_report_path: str | Path,
+                     correction_summary_path: str | Path, s_opt_paths: dict[str, str],
+                     findings_paths: dict[str, str | None]) -> Path:
+    """Read the pipeline's outputs, write :func:`front_page` to ``path``."""
+    text = front_page(
+        Path(intro_path).read_text(encoding="utf-8"),
+        pd.read_csv(spans_report_path, dtype={"span_id": str, "section_id": str, "reason": str}),
+        pd.read_csv(correction_summary_path),
+        {t: pd.read_csv(p) for t, p in s_opt_paths.items()},
+        {t: (pd.read_csv(p) if p else None) for t, p in findings_paths.items()},
+    )
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    return path

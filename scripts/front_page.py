@@ -1,0 +1,12 @@
+"""Rule front_page: the HTML report's opening panel (catenary.front_page)."""
+
+from catenary.front_page import write_front_page
+from catenary.logs import rule_logger
+
+log = rule_logger("front_page", snakemake.log[0])
+inputs = dict(snakemake.input.items())
+types = [key.removeprefix("s_opt_") for key in inputs if key.startswith("s_opt_")]
+path = write_front_page(snakemake.output.front_page, snakemake.input.intro, snakemake.input.spans_report,
+                        snakemake.input.correction_summary, {t: inputs[f"s_opt_{t}"] for t in types},
+                        {t: inputs.get(f"findings_{t}") for t in types})
+log.info("front page for %s written to %s", ", ".join(types) or "no span type", path)
