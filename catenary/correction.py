@@ -221,11 +221,12 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
     if settings.mode == "dynamic" and settings.quasi_static_start:
         # Cheap quasi-static passes remove most of the gap before the dynamic ones.
         stages.insert(0, ("quasi_static", 0.1 * settings.tolerance_m))
-    progress = Progress(log, f"section {rows['section_id'].iloc[0]} correction", len(stages) * settings.max_iterations,
-                        "passes", bound=True, every_s=0.0)
     try:
         for mode, tolerance in stages:
-            for _ in range(settings.max_iterations):
+            # one estimate per stage: a dynamic pass costs ≈ 20 quasi-static ones
+            progress = Progress(log, f"section {rows['section_id'].iloc[0]} correction", settings.max_iterations,
+                                f"{mode} passes", bound=True, every_s=0.0)
+            for done in range(1, settings.max_iterations + 1):
                 if history:          # move the static CW by the last gap
                     section = section.with_cw_support_heights(section.cw_support_heights_m + gap_m)
                     static_d = static_d + gap_d
@@ -238,8 +239,8 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
                 gap_w = gap_d - section.chord_at_droppers(gap_m)
                 norms = np.sqrt(np.bincount(section.dropper_span, gap_w ** 2, minlength=len(rows)))
                 history.append((mode, norms))
-                progress.update(len(history), f"{mode} pass, largest gap {1e3 * _nanmax(norms):.3f} mm, "
-                                f"{int(np.sum(norms < tolerance))} of {len(rows)} spans within {1e3 * tolerance:.2f} mm")
+                progress.update(done, f"largest gap {1e3 * _nanmax(norms):.3f} mm, {int(np.sum(norms < tolerance))} "
+                                f"of {len(rows)} spans within {1e3 * tolerance:.2f} mm")
                 if np.all(norms < tolerance):
                     break
     except ConvergenceError as exc:

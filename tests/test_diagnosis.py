@@ -227,3 +227,26 @@ def test_too_few_spans_are_refused_before_any_fit(catenary, n2):
     data = simulate_spans(sampler, means, sigmas, None, 2, seed=3, noise_std_m=0.0006)
     with pytest.raises(InputError, match=r"span type N2: 2 measured span\(s\) \(13 more left out.*for 12 identified"):
         diagnose(n2, catenary, data, IDENT, SETTINGS, n_left_out=13)
+
+
+@pytest.mark.slow
+def test_the_verdict_and_its_figures_do_not_depend_on_the_workers(catenary, n2):
+    # The candidates' refits are independent and deterministic: run by one process in config
+    # order, or by two that start the costliest (the CW offset's, 4.3× a base evaluation) first
+    # and finish in any order, they give the same tests, in config order. Small design (N = 500,
+    # 40 spans, 3 candidates, one step): both runs took 3.2 min on 2 cores shared with another
+    # run (`make test-slow`).
+    settings = DiagnosisSettings.from_mapping({"n_samples": 500, "max_steps": 1, "bootstrap_replicates": 100,
+                                               "max_evaluations": 300, "candidates": [
+                                                   "messenger_tension_variability", "dropper_creep",
+                                                   "cw_longitudinal_offset"]})
+    sampler = make_sampler(n2, catenary, IDENT, settings, ("messenger_tension_variability",))
+    means, sigmas = _laws(sampler)
+    data = simulate_spans(sampler, means, sigmas, {"messenger_tension_variability": {"std_n": 800.0}}, 40,
+                          seed=23, noise_std_m=0.0006)
+    one, two = (diagnose(n2, catenary, data, IDENT, settings, workers=w) for w in (1, 2))
+    assert [c.effect for c in two.steps[0].candidates] == list(settings.candidates)
+    for a, b in zip(one.steps[0].candidates, two.steps[0].candidates):
+        assert (a.effect, a.delta_loglik, a.p_value, a.n_evaluations) == (b.effect, b.delta_loglik, b.p_value,
+                                                                          b.n_evaluations)
+    assert (one.steps[0].verdict, one.steps[0].effect) == (two.steps[0].verdict, two.steps[0].effect)

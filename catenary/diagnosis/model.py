@@ -30,7 +30,7 @@ from ..fast import FastSpanModel
 from ..identification.design import map_inputs
 from .candidates import CANDIDATES
 
-__all__ = ["EffectSampler", "ModelSet", "design_columns", "simulate_spans"]
+__all__ = ["EffectSampler", "ModelSet", "design_columns", "relative_cost", "simulate_spans"]
 
 #: T_CW range served when a candidate varies it: ±10 % of the design tension.
 CONTACT_TENSION_RANGE = 0.10
@@ -42,6 +42,19 @@ OFFSET_BOUNDS_M = (-0.5, 0.5)
 #: condensations (measured; the data's correction residual is ≈ 6e-4 m RMS), at a J cost of
 #: 3× and 7× the base model's.
 CONTACT_DEGREE, OFFSET_DEGREE = 2, 6
+
+
+#: Cost of one J evaluation relative to the base model's, per need of the fast model: measured on
+#: the default run's N2 diagnosis (117 spans, N = 10⁴; candidates.csv: ≈ 12.5 ms per evaluation
+#: for the base, 23–27 ms with a per-sample T_CW, 54 ms with a CW clamp offset); two span models
+#: for ``continuity``.
+COST_FACTORS = {"offset": 4.3, "contact_tension": 2.0, "continuity": 2.0}
+
+
+def relative_cost(needs) -> float:
+    """Cost of a J evaluation of a model with ``needs`` relative to the base model's (the
+    largest factor of :data:`COST_FACTORS` among them, 1 without any)."""
+    return max([1.0] + [COST_FACTORS[n] for n in needs if n in COST_FACTORS])
 
 
 def design_columns(base_dimension: int, candidates) -> dict[str, int]:

@@ -27,7 +27,7 @@ import dataclasses
 import logging
 import multiprocessing
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,7 +43,7 @@ from ..normality import henze_zirkler
 from .candidates import CANDIDATES
 from .locate import (Locate, efficient_information, expected_information, locate, mixture_sf,
                      required_noncentrality, score_pvalue, secant_noncentrality)
-from .model import EffectSampler, ModelSet, design_columns
+from .model import EffectSampler, ModelSet, design_columns, relative_cost
 from .problem import Fit, JointProblem, refit, with_covariance
 from .settings import DiagnosisSettings
 
@@ -353,9 +353,13 @@ def _worker_test(effect: str) -> tuple[CandidateTest, Fit]:
 
 
 def _map_candidates(ctx, effects, fit, base_moments, names, workers):
-    """Test every candidate, in ``workers`` forked processes or in this one.
+    """Test every candidate, in ``workers`` forked processes or in this one; yield
+    ``(name, (test, fit))`` as each refit ends.
 
-    The refits are independent and deterministic: the result does not depend on ``workers``.
+    The refits are independent and deterministic: the result does not depend on ``workers`` or
+    on the order they end in. With several workers the costliest refits start first (their J
+    costs :func:`.model.relative_cost` times the base model's), so that the cheap ones fill the
+    other workers meanwhile instead of leaving one worker alone with the costliest at the end.
     Each process should use one BLAS thread (``OPENBLAS_NUM_THREADS=1`` before NumPy is
     imported, as the rule script does) so that ``workers`` processes use ``workers`` cores.
     """
@@ -363,14 +367,17 @@ def _map_candidates(ctx, effects, fit, base_moments, names, workers):
     if workers <= 1 or len(names) <= 1:
         _WORKER.update(args)
         try:
-            yield from (_worker_test(n) for n in names)
+            yield from ((n, _worker_test(n)) for n in names)
         finally:
             _WORKER.clear()
         return
+    order = sorted(names, key=lambda n: -relative_cost(CANDIDATES[n].needs))     # stable: config order on ties
     _WORKER.update(args)
     try:
         with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork")) as pool:
-            yield from pool.map(_worker_test, names)
+            futures = {pool.submit(_worker_test, n): n for n in order}
+            for future in as_completed(futures):
+                yield futures[future], future.result()
     finally:
         _WORKER.clear()
 
@@ -493,14 +500,14 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
         base_moments = _base_moments(ctx, problem, fit.theta)
         results = {}
         progress = Progress(log, f"{span_type.name} step {k}", len(remaining), "candidates", every_s=0.0)
-        for name, (test, new_fit) in zip(remaining, _map_candidates(ctx, problem.effects, fit, base_moments, remaining,
-                                                                    workers)):
+        for name, (test, new_fit) in _map_candidates(ctx, problem.effects, fit, base_moments, remaining, workers):
             results[name] = (test, new_fit)
             progress.update(len(results), f"{name}: Δℓ = {test.delta_loglik:.2f}, LR = {test.lr_statistic:.2f} "
                             f"(sandwich factor {test.lr_factor:.2f}), p = {test.p_value:.3g} (adjusted "
                             f"{test.p_adjusted:.3g}), BIC {test.bic:.1f}; "
                             + ", ".join(f"{key} = {v[0]:.4g}" for key, v in test.estimates.items())
                             + f"; {test.n_evaluations} evaluations, {test.time_s:.1f} s")
+        results = {name: results[name] for name in remaining}             # config order, whatever ended first
         tests = [r[0] for r in results.values()]
         verdict, effect, runner = _verdict(tests, settings.level, settings.bic_margin)
         after = None
