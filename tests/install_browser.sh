@@ -8,8 +8,10 @@ if command -v chromium > /dev/null; then
 fi
 if [ "$(id -u)" -eq 0 ] && command -v apt-get > /dev/null; then
     echo "installing Debian's chromium for the report's browser test"
-    apt-get update -qq > /dev/null
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium > /dev/null
+    if ! { apt-get update -qq > /dev/null && \
+           DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium > /dev/null; }; then
+        echo "installing chromium failed: the report's browser test will be skipped (pytest lists the skip)"
+    fi
 else
     echo "chromium missing and no root apt-get: the report's browser test will be skipped (apt-get install chromium)"
 fi
