@@ -56,3 +56,5 @@ def test_shipped_example_runs_the_measurement_pipeline_for_its_span_type(tmp_pat
     html_report = (results / "report.html").read_text()             # make own-data's report: N2's results
     assert f"{results}/N2/identification/band.png" in html_report
     assert f"{results}/N2/diagnosis/findings.csv" in html_report
+    front = (results / "report" / "front_page.rst").read_text()          # the report's opening panel
+    assert "\nN2\n~~" in front and "\nN3\n~~" not in front and "15 used, 1 rejected" in front
