@@ -1,7 +1,7 @@
 """The front page of the HTML report: per span type, what a reader asks first.
 
-``make run`` ends with ``snakemake --report results/report.html``; the report's opening panel is
-the reStructuredText this module writes (rule ``front_page``): the method in a few lines (from
+``make run`` ends by writing ``results/report.html`` (``--report … --report-after-run``); the
+report's opening panel is the reStructuredText this module writes (rule ``front_page``): the method in a few lines (from
 ``workflow/report/workflow.rst``), then per span type the spans used and rejected, the dynamic
 correction's convergence, the paper's Table 2 analogue with standard errors and the diagnosis'
 verdict at each step. It only reads the pipeline's own outputs.

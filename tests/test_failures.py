@@ -9,7 +9,10 @@ one success (a semicolon, decimal-comma export) is read to the same Parquet as t
 
 from __future__ import annotations
 
+import os
+import signal
 import subprocess
+import time
 
 import numpy as np
 import pandas as pd
@@ -121,10 +124,6 @@ def test_a_run_killed_mid_job_is_resumed_by_the_next_run(tmp_path):
     # 9.27 reran this job even without the flag: the IncompleteFilesException of the report did
     # not reproduce, so the test does not assert it.) The run has its own working directory (its
     # own .snakemake and locks), with links to the project's files.
-    import os
-    import signal
-    import time
-
     for name in ("config", "workflow", "scripts", "Snakefile"):
         (tmp_path / name).symlink_to(ROOT / name)
     results = tmp_path / "results"

@@ -12,7 +12,6 @@ summary of what was drawn: the static geometry in the analysis window
 
 from __future__ import annotations
 
-
 import numpy as np
 import pandas as pd
 

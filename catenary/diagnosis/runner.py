@@ -37,9 +37,9 @@ from ..identification.design import MESSENGER_TENSION, design_dimension, draw_un
 from ..identification.fit import ParameterBox, messenger_tension_bounds_n
 from ..identification.likelihood import Likelihood
 from ..identification.report import check_span_count
-from ..progress import Progress
 from ..identification.settings import IdentificationSettings
 from ..normality import henze_zirkler
+from ..progress import Progress
 from .candidates import CANDIDATES
 from .locate import (Locate, efficient_information, expected_information, locate, mixture_sf,
                      required_noncentrality, score_pvalue, secant_noncentrality)

@@ -143,6 +143,9 @@ class ScaledProblem:
         ``(θ, means, sigmas, J)`` of every evaluation while ``recording``.
     n_evaluations : int
         Evaluations of J so far (recorded or not).
+    progress : Progress or None
+        Where the recorded evaluations are reported (:mod:`catenary.progress`), with ``best_j``,
+        the largest finite J recorded so far.
     """
 
     likelihood: Likelihood
@@ -179,7 +182,7 @@ class ScaledProblem:
         if self.recording:
             self.trace.append((theta, means, sigmas, value))
             if self.progress is not None:
-                if np.isfinite(value) and not value <= self.best_j:
+                if np.isfinite(value) and value > self.best_j:
                     self.best_j = value
                 self.progress.update(len(self.trace), f"best J so far {self.best_j:.3f}")
         return value
