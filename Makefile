@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 CORES ?= 2
 SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 
-.PHONY: setup run own-data paper unlock test test-slow test-cluster bench validate clean
+.PHONY: setup run own-data paper unlock test test-slow test-cluster bench bench-line validate clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -59,6 +59,11 @@ test-cluster: setup
 
 bench: setup
 	$(BIN)/python benchmarks/run.py
+
+# A 1 000-span line (config/line/) from campaign to diagnosis on $(CORES) cores, in results/line/:
+# wall time per stage and peak memory per job into results/benchmarks.json (benchmarks/line.py).
+bench-line: setup
+	$(BIN)/python benchmarks/line.py --cores $(CORES)
 
 # Campaigns of known truth through the whole pipeline (config/validation/): the identification's
 # validation table, the model-form differences and every hidden-effect campaign's diagnosis

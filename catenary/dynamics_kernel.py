@@ -19,55 +19,105 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["band_rows", "band_solve", "csr_matvec", "newmark_contact_loop"]
+__all__ = ["band_diagonals", "band_rows", "band_solve", "banded_products", "newmark_contact_loop"]
 
 #: Status codes of :func:`newmark_contact_loop`.
 OK, NOT_SETTLED = 0, 1
 
 
-def band_rows(ab: np.ndarray) -> np.ndarray:
-    """Row storage ``rows[i, k] = U[i, i + k]`` (k = 0 … kd) of an upper banded factor given in
-    LAPACK storage ``ab[kd + i − j, j] = U[i, j]`` (zeros past the last row)."""
+def band_rows(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit-diagonal row storage of an upper banded Cholesky factor U (``K = Uᵀ U``).
+
+    ``ab`` is LAPACK's storage ``ab[kd + i − j, j] = U[i, j]``. Returns ``rows`` with
+    ``rows[i, k] = U[i, i + k] / U[i, i]`` (k = 0 … kd; zeros past the last row) and
+    ``inv_diag_sq[i] = 1 / U[i, i]²``, so that ``K = Vᵀ D V`` with V unit upper banded and
+    ``D = diag(U[i, i]²)``: :func:`band_solve` then needs no division.
+    """
     kd = ab.shape[0] - 1
     n = ab.shape[1]
     rows = np.zeros((n, kd + 1))
     for k in range(kd + 1):
         rows[:n - k, k] = ab[kd - k, k:]
-    return rows
+    diagonal = rows[:, 0].copy()
+    return rows / diagonal[:, None], 1.0 / diagonal**2
 
 
-@njit(cache=True)
-def band_solve(rows, rhs, out):
-    """Solve ``Uᵀ U x = rhs`` into ``out``, U upper banded in row storage (:func:`band_rows`).
-
-    Both sweeps read one contiguous row of U per unknown: Uᵀ y = rhs column by column (each
-    solved unknown updates the next kd right-hand sides), then U x = y row by row.
-    """
-    n, width = rows.shape
-    kd = width - 1
-    for i in range(n):
-        out[i] = rhs[i]
-    for i in range(n):
-        yi = out[i] / rows[i, 0]
-        out[i] = yi
-        for k in range(1, min(width, n - i)):
-            out[i + k] -= rows[i, k] * yi
-    for i in range(n - 1, -1, -1):
-        s = out[i]
-        for k in range(1, min(width, n - i)):
-            s -= rows[i, k] * out[i + k]
-        out[i] = s / rows[i, 0]
+def band_diagonals(matrix, kd: int) -> np.ndarray:
+    """Diagonals of a sparse matrix of half-bandwidth ``kd``, shape (2 kd + 1, n):
+    ``out[kd + d, i] = A[i, i + d]`` (zero where ``i + d`` is outside), for
+    :func:`banded_products`."""
+    a = matrix.tocsr()
+    n = a.shape[0]
+    out = np.zeros((2 * kd + 1, n))
+    for d in range(-kd, kd + 1):
+        diagonal = a.diagonal(d)
+        if d >= 0:
+            out[kd + d, :n - d] = diagonal
+        else:
+            out[kd + d, -d:] = diagonal
+    if a.nnz and np.max(np.abs(a.indices - np.repeat(np.arange(n), np.diff(a.indptr)))) > kd:
+        raise ValueError(f"matrix wider than the half-bandwidth {kd}")
     return out
 
 
 @njit(cache=True)
-def csr_matvec(indptr, indices, data, x, out, scale):
-    """``out += scale · A x`` for A in CSR form."""
-    for i in range(indptr.size - 1):
-        s = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            s += data[k] * x[indices[k]]
-        out[i] += scale * s
+def band_solve(rows, inv_diag_sq, rhs, out):
+    """Solve ``Vᵀ D V x = rhs`` into ``out`` (:func:`band_rows`' storage of ``K = Uᵀ U``).
+
+    Forward sweep Vᵀ y = rhs, scaling by D⁻¹, backward sweep V x = y. With the usual
+    half-bandwidth 5 each unknown is a dot product with the five previous (next) ones kept in
+    registers, so the recursion's critical path is one multiply-add per unknown; other widths
+    (inclined droppers) take the general loop.
+    """
+    n, width = rows.shape
+    if width == 6:
+        # y_k = 0 before the first unknown, so the products with the rows before row 0
+        # (read by wrap-around) vanish and the first five unknowns need no branch.
+        y1 = y2 = y3 = y4 = y5 = 0.0
+        for i in range(n):
+            s = rhs[i] - (rows[i - 5, 5] * y5 + rows[i - 4, 4] * y4 + rows[i - 3, 3] * y3)
+            s -= rows[i - 2, 2] * y2
+            s -= rows[i - 1, 1] * y1
+            y5, y4, y3, y2, y1 = y4, y3, y2, y1, s
+            out[i] = s * inv_diag_sq[i]
+        x1 = x2 = x3 = x4 = x5 = 0.0
+        for i in range(n - 1, -1, -1):
+            r = rows[i]
+            s = out[i] - (r[5] * x5 + r[4] * x4 + r[3] * x3)
+            s -= r[2] * x2
+            s -= r[1] * x1
+            x5, x4, x3, x2, x1 = x4, x3, x2, x1, s
+            out[i] = s
+        return out
+    kd = width - 1
+    for i in range(n):
+        out[i] = rhs[i]
+    for i in range(n):
+        yi = out[i]
+        for k in range(1, min(width, n - i)):
+            out[i + k] -= rows[i, k] * yi
+    for i in range(n):
+        out[i] *= inv_diag_sq[i]
+    for i in range(n - 1, -1, -1):
+        s = out[i]
+        for k in range(1, min(width, n - i)):
+            s -= rows[i, k] * out[i + k]
+        out[i] = s
+    return out
+
+
+@njit(cache=True)
+def banded_products(m_diagonals, c_diagonals, p_padded, q_padded, f, out):
+    """``out = f + M p + C q`` with M, C given by :func:`band_diagonals` and p, q padded by kd
+    zeros at each end (``p_padded[kd + i] = p[i]``): one contiguous pass per diagonal."""
+    n = f.size
+    for i in range(n):
+        out[i] = f[i]
+    for d in range(m_diagonals.shape[0]):
+        m_row = m_diagonals[d]
+        c_row = c_diagonals[d]
+        for i in range(n):
+            out[i] += m_row[i] * p_padded[i + d] + c_row[i] * q_padded[i + d]
 
 
 @njit(cache=True)
@@ -92,14 +142,16 @@ def _shape(x_nodes, lam, basis_inverse, exact, e, x):
 
 
 @njit(cache=True)
-def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_indptr, m_indices, m_data,
-                         c_indptr, c_indices, c_data, ab, z, dd, dropper_mw, dropper_cw, dropper_k, dropper_l,
+def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_diagonals, c_diagonals,
+                         rows, inv_diag_sq, z_t, dd, dropper_mw, dropper_cw, dropper_k, dropper_l,
                          x_nodes, lam, basis_inverse, exact, element_dofs, m_p, c_p, k_eff_p_inv, p_flex, f_mean,
                          reference, k_c, mast_dofs, static_mast, u, v, acc, y, yv, ya, slack, touching, f_c,
                          max_iterations, out_f, out_w, out_head, out_slack, out_uplift):
     """The time loop of ``run_pantograph`` from its initial state; fills the ``out_*`` arrays.
 
-    ``coefficients`` holds Newmark's (a0, a1, a2, a3, a4, a5, γ). Returns (status, step):
+    ``coefficients`` holds Newmark's (a0, a1, a2, a3, a4, a5, γ); the effective stiffness is
+    factorised in ``rows``, ``inv_diag_sq`` (:func:`band_rows`), M and C are given by their
+    diagonals (:func:`band_diagonals`) and ``z_t[j]`` is K_eff⁻¹ g_j. Returns (status, step):
     status 1 when the dropper/contact states of ``step`` did not settle in ``max_iterations``.
     """
     a0, a1, a2, a3, a4, a5, gamma = (coefficients[0], coefficients[1], coefficients[2], coefficients[3],
@@ -116,8 +168,9 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_ind
     unit = np.zeros((n_slots, n))
     unit_rhs = np.zeros(n)
     slots = np.zeros(4, dtype=np.int64)
-    p = np.empty(n)
-    q = np.empty(n)
+    kd = (m_diagonals.shape[0] - 1) // 2
+    p = np.zeros(n + 2 * kd)                 # padded by kd zeros at each end
+    q = np.zeros(n + 2 * kd)
     rhs = np.empty(n)
     u_star = np.empty(n)
     zp = np.empty(n)
@@ -146,11 +199,9 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_ind
         if step > 0:
             # Right-hand side of the catenary's effective system.
             for i in range(n):
-                p[i] = a0 * u[i] + a2 * v[i] + a3 * acc[i]
-                q[i] = a1 * u[i] + a4 * v[i] + a5 * acc[i]
-                rhs[i] = f_const[i]
-            csr_matvec(m_indptr, m_indices, m_data, p, rhs, 1.0)
-            csr_matvec(c_indptr, c_indices, c_data, q, rhs, 1.0)
+                p[kd + i] = a0 * u[i] + a2 * v[i] + a3 * acc[i]
+                q[kd + i] = a1 * u[i] + a4 * v[i] + a5 * acc[i]
+            banded_products(m_diagonals, c_diagonals, p, q, f_const, rhs)
             # Pantograph predictor.
             rhs_p = np.zeros(n_p)
             rhs_p[0] = f_mean
@@ -172,11 +223,11 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_ind
                             found = k
                     unit_rhs[:] = 0.0
                     unit_rhs[keep[j]] = 1.0
-                    band_solve(ab, unit_rhs, unit[found])
+                    band_solve(rows, inv_diag_sq, unit_rhs, unit[found])
                     slot_dof[found] = keep[j]
                 slot_used[found] = step
                 slots[j] = found
-            band_solve(ab, rhs, u_star)
+            band_solve(rows, inv_diag_sq, rhs, u_star)
             for i in range(n):
                 s = 0.0
                 for j in range(m):
@@ -241,10 +292,11 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_ind
             if not settled:
                 return NOT_SETTLED, step
             for i in range(n):
-                s = u_star[i] + zp[i] * fc
-                for r in range(s_idx.size):
-                    s += z[i, s_idx[r]] * lam_s[r]
-                u_new[i] = s
+                u_new[i] = u_star[i] + zp[i] * fc
+            for r in range(s_idx.size):
+                column = z_t[s_idx[r]]
+                for i in range(n):
+                    u_new[i] += column[i] * lam_s[r]
             for i in range(n):
                 acc_new = a0 * (u_new[i] - u[i]) - a2 * v[i] - a3 * acc[i]
                 v[i] = v[i] + dt * ((1 - gamma) * acc[i] + gamma * acc_new)

@@ -232,7 +232,7 @@ def test_too_few_spans_are_refused_before_any_fit(catenary, n2):
 @pytest.mark.slow
 def test_the_verdict_and_its_figures_do_not_depend_on_the_workers(catenary, n2):
     # The candidates' refits are independent and deterministic: run by one process in config
-    # order, or by two that start the costliest (the CW offset's, 4.3× a base evaluation) first
+    # order, or by two that start the costliest (the CW offset's, 3.3× a base evaluation) first
     # and finish in any order, they give the same tests, in config order. Small design (N = 500,
     # 40 spans, 3 candidates, one step): both runs took 3.2 min on 2 cores shared with another
     # run (`make test-slow`).

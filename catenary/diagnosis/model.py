@@ -45,10 +45,10 @@ CONTACT_DEGREE, OFFSET_DEGREE = 2, 6
 
 
 #: Cost of one J evaluation relative to the base model's, per need of the fast model: measured on
-#: the default run's N2 diagnosis (117 spans, N = 10⁴; candidates.csv: ≈ 12.5 ms per evaluation
-#: for the base, 23–27 ms with a per-sample T_CW, 54 ms with a CW clamp offset); two span models
+#: the diagnosis benchmark's N2 data (117 spans, N = 10⁴, one BLAS thread: ≈ 9 ms per evaluation
+#: for the base, 18 ms with a per-sample T_CW, 30 ms with a CW clamp offset); two span models
 #: for ``continuity``.
-COST_FACTORS = {"offset": 4.3, "contact_tension": 2.0, "continuity": 2.0}
+COST_FACTORS = {"offset": 3.3, "contact_tension": 2.0, "continuity": 2.0}
 
 
 def relative_cost(needs) -> float:
