@@ -4,11 +4,14 @@ The algorithm is the module :mod:`catenary.dynamics`'s, step for step: Newmark a
 acceleration on the linear all-taut catenary, the pantograph's Newmark update, and at each step
 the small active-set system of the slack droppers and the penalty contact
 (:meth:`~catenary.dynamics.PseudoForceSolver.equilibrium`), with the same Green's functions of
-the factorised effective stiffness. Only the arithmetic moved: the banded Cholesky back-
-substitutions, the sparse products with the mass and damping and the active set run as
-compiled loops instead of one Python call each. Measured on the 10-span N2 section at
-300 km/h: the same contact forces and heights as the Python loop to rounding (README,
-"Speed of the dynamic model").
+the factorised effective stiffness. Only the arithmetic moved, to compiled loops shaped for
+a core: the effective stiffness's banded Cholesky factor is kept as ``Vᵀ D V`` (unit diagonal,
+so the back-substitutions divide by nothing) and, at the usual half-bandwidth 5, each sweep
+keeps the last five unknowns in registers; the right-hand side's products with the mass and
+damping run one contiguous pass per diagonal; the slack droppers' Green's functions are stored
+one dropper per row. Per step of a 20-span section (9 583 unknowns): solve 189 → 59 µs,
+M p + C q 171 → 54 µs. The contact forces and heights are those of the Python loop to
+rounding (fixture test), and the README's "Speed of the dynamic model" gives the profile.
 
 Numba compiles the functions on first use and caches the machine code next to this file
 (``__pycache__``), so a fresh process pays the compilation (≈ 10 s) once per installation.

@@ -105,6 +105,7 @@ def test_sobol_estimates_of_a_function_with_known_indices(catenary, n2):
     np.testing.assert_allclose(r.first, [0.472, 0.302, 0.170, 0.0, 0.0], atol=0.05)
     assert r.second[0, 2] == pytest.approx(0.057, abs=0.05)
     assert r.sum_first_second == pytest.approx(1.0, abs=0.2)
+    assert r.sum_interval[0] < 1.0 < r.sum_interval[1]      # measured [0.94, 1.31]: the bootstrap covers the truth
     assert np.all(r.first_interval[:, 0] <= r.first_interval[:, 1])
 
 

@@ -102,7 +102,8 @@ def sobol_figure(results: list[SobolResult], path, title):
                label="total order (95 % bootstrap interval)")
         ax.set_xticks(x, [g.replace("effect:", "") for g in r.groups], rotation=20, fontsize=8)
         ax.set_ylabel("Sobol index (share of variance) [-]")
-        ax.set_title(f"{r.criterion}: first + second order = {r.sum_first_second:.2f}", fontsize=9)
+        ax.set_title(f"{r.criterion}: first + second order = {r.sum_first_second:.2f} "
+                     f"[{r.sum_interval[0]:.2f}, {r.sum_interval[1]:.2f}]", fontsize=9)
         ax.grid(alpha=0.3, axis="y")
         ax.legend(fontsize=8)
     fig.suptitle(title)
@@ -186,8 +187,9 @@ def report_markdown(span_type: str, settings: ContactForceSettings, summary: pd.
             lines += [f"- {g}: first order {f:.2f} [{fl:.2f}, {fh:.2f}], total {t:.2f} [{tl:.2f}, {th:.2f}]"
                       for g, f, (fl, fh), t, (tl, th) in zip(r.groups, r.first, r.first_interval, r.total,
                                                              r.total_interval)]
-            lines += [f"- first + second order: {r.sum_first_second:.2f} (≈ 1 when third-order interactions are "
-                      "negligible)", ""]
+            lines += [f"- first + second order: {r.sum_first_second:.2f} [{r.sum_interval[0]:.2f}, "
+                      f"{r.sum_interval[1]:.2f}] (≈ 1 when third-order interactions are negligible; the "
+                      f"interval is the estimator's error at N = {r.n_base})", ""]
     lines += ["## Figures", ""] + [f"![{f}]({f})" for f in figures] + [""]
     return "\n".join(lines)
 

@@ -68,13 +68,16 @@ class SobolResult:
     second: np.ndarray
     sum_first_second: float
     n_base: int
+    sum_interval: tuple[float, float] = (float("nan"), float("nan"))
 
     def table(self) -> pd.DataFrame:
         return pd.DataFrame({"criterion": self.criterion, "group": list(self.groups), "first_order": self.first,
                              "first_order_low": self.first_interval[:, 0], "first_order_high": self.first_interval[:, 1],
                              "total_order": self.total, "total_order_low": self.total_interval[:, 0],
                              "total_order_high": self.total_interval[:, 1],
-                             "sum_first_second_order": self.sum_first_second, "n_base": self.n_base})
+                             "sum_first_second_order": self.sum_first_second,
+                             "sum_first_second_order_low": self.sum_interval[0],
+                             "sum_first_second_order_high": self.sum_interval[1], "n_base": self.n_base})
 
 
 def _mauntz_kucherenko(design: np.ndarray, values: np.ndarray, n_base: int):
@@ -87,22 +90,25 @@ def sobol_indices(design: np.ndarray, values: np.ndarray, names: tuple[str, ...]
                   criterion: str, *, n_bootstrap: int = 200, seed: int = 0) -> SobolResult:
     """Mauntz–Kucherenko indices from the design and the criterion of each of its rows, with
     95 % percentile-bootstrap intervals: the N base samples are resampled with replacement
-    together with every pick-freeze row built from them (the design's blocks of N rows)."""
+    together with every pick-freeze row built from them (the design's blocks of N rows); the
+    same for first plus second order, whose departure from 1 beyond its interval would be
+    third-order interactions (or an estimator's bias)."""
     values = np.asarray(values, dtype=float)
     first, total, second = _mauntz_kucherenko(design, values, n_base)
     n_blocks = design.shape[0] // n_base
     rng = np.random.default_rng(seed)
-    boot_first, boot_total = [], []
+    boot_first, boot_total, boot_sum = [], [], []
     for _ in range(n_bootstrap):
         pick = rng.integers(0, n_base, n_base)
         rows = (np.arange(n_blocks)[:, None] * n_base + pick[None, :]).ravel()
         if np.unique(pick).size < 2:          # one base sample repeated: no variance to share
             continue
-        f, t, _ = _mauntz_kucherenko(design[rows], values[rows], n_base)
+        f, t, s2 = _mauntz_kucherenko(design[rows], values[rows], n_base)
         boot_first.append(f)
         boot_total.append(t)
+        boot_sum.append(f.sum() + np.triu(s2, 1).sum())
     fi = np.nanquantile(np.array(boot_first), [0.025, 0.975], axis=0).T
     ti = np.nanquantile(np.array(boot_total), [0.025, 0.975], axis=0).T
     return SobolResult(criterion=criterion, groups=tuple(names), first=first, first_interval=fi, total=total,
                        total_interval=ti, second=second, sum_first_second=float(first.sum() + np.triu(second, 1).sum()),
-                       n_base=int(n_base))
+                       n_base=int(n_base), sum_interval=tuple(float(v) for v in np.nanquantile(boot_sum, [0.025, 0.975])))
