@@ -176,8 +176,9 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_dia
     q = np.zeros(n + 2 * kd)
     rhs = np.empty(n)
     u_star = np.empty(n)
-    zp = np.empty(n)
-    u_new = np.empty(n)
+    for i in range(n):                       # the right-hand side's vectors of the first step
+        p[kd + i] = a0 * u[i] + a2 * v[i] + a3 * acc[i]
+        q[kd + i] = a1 * u[i] + a4 * v[i] + a5 * acc[i]
     keep = np.zeros(4, dtype=np.int64)
     shape = np.zeros(4)
     zp_g = np.empty(n_d)
@@ -200,10 +201,7 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_dia
                 shape[m] = full[j]
                 m += 1
         if step > 0:
-            # Right-hand side of the catenary's effective system.
-            for i in range(n):
-                p[kd + i] = a0 * u[i] + a2 * v[i] + a3 * acc[i]
-                q[kd + i] = a1 * u[i] + a4 * v[i] + a5 * acc[i]
+            # Right-hand side of the catenary's effective system (p, q from the last update).
             banded_products(m_diagonals, c_diagonals, p, q, f_const, rhs)
             # Pantograph predictor.
             rhs_p = np.zeros(n_p)
@@ -231,19 +229,20 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_dia
                 slot_used[found] = step
                 slots[j] = found
             band_solve(rows, inv_diag_sq, rhs, u_star)
-            for i in range(n):
+            # zp = K⁻¹ N_p (the response to a unit contact force) is needed at the droppers and
+            # under the contact only: read there from the unit responses.
+            for i in range(n_d):
                 s = 0.0
                 for j in range(m):
-                    s += unit[slots[j], i] * shape[j]
-                zp[i] = s
-            for i in range(n_d):
-                zp_g[i] = zp[dropper_mw[i]] - zp[dropper_cw[i]]
+                    s += (unit[slots[j], dropper_mw[i]] - unit[slots[j], dropper_cw[i]]) * shape[j]
+                zp_g[i] = s
                 e_star[i] = u_star[dropper_mw[i]] - u_star[dropper_cw[i]] - dropper_l[i]
             w_star = 0.0
             cz = 0.0
             for j in range(m):
                 w_star += shape[j] * u_star[keep[j]]
-                cz += shape[j] * zp[keep[j]]
+                for k in range(m):
+                    cz += shape[j] * unit[slots[k], keep[j]] * shape[k]
             # Active set of slack droppers and contact.
             settled = False
             lam_s = np.zeros(0)
@@ -294,17 +293,27 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_dia
                 touching = new_touching
             if not settled:
                 return NOT_SETTLED, step
-            for i in range(n):
-                u_new[i] = u_star[i] + zp[i] * fc
-            for r in range(s_idx.size):
+            for r in range(s_idx.size):          # the slack droppers' pseudo-forces
                 column = z_t[s_idx[r]]
                 for i in range(n):
-                    u_new[i] += column[i] * lam_s[r]
+                    u_star[i] += column[i] * lam_s[r]
+            # One pass: the new state (u* + fc K⁻¹ N_p), Newmark's update, and p, q of the next
+            # step's right-hand side.
+            c0 = shape[0] * fc if m > 0 else 0.0
+            c1 = shape[1] * fc if m > 1 else 0.0
+            c2 = shape[2] * fc if m > 2 else 0.0
+            c3 = shape[3] * fc if m > 3 else 0.0
+            r0, r1 = unit[slots[0]], unit[slots[1] if m > 1 else slots[0]]
+            r2, r3 = unit[slots[2] if m > 2 else slots[0]], unit[slots[3] if m > 3 else slots[0]]
             for i in range(n):
-                acc_new = a0 * (u_new[i] - u[i]) - a2 * v[i] - a3 * acc[i]
-                v[i] = v[i] + dt * ((1 - gamma) * acc[i] + gamma * acc_new)
-                u[i] = u_new[i]
+                u_new = u_star[i] + c0 * r0[i] + c1 * r1[i] + c2 * r2[i] + c3 * r3[i]
+                acc_new = a0 * (u_new - u[i]) - a2 * v[i] - a3 * acc[i]
+                v_new = v[i] + dt * ((1 - gamma) * acc[i] + gamma * acc_new)
+                u[i] = u_new
+                v[i] = v_new
                 acc[i] = acc_new
+                p[kd + i] = a0 * u_new + a2 * v_new + a3 * acc_new
+                q[kd + i] = a1 * u_new + a4 * v_new + a5 * acc_new
             y_new = y_star + p_flex * fc
             ya_new = a0 * (y_new - y) - a2 * yv - a3 * ya
             yv = yv + dt * ((1 - gamma) * ya + gamma * ya_new)
