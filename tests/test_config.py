@@ -43,3 +43,25 @@ def test_unknown_span_type_lists_known_ones(catenary):
 def test_missing_file_is_named(tmp_path):
     with pytest.raises(ConfigError, match="not found"):
         load_catenary(tmp_path / "nope.yaml")
+
+
+def test_the_line_of_make_bench_line_is_a_thousand_spans_of_both_types(catenary):
+    # The truth and overlay of `make bench-line` are read as the workflow reads them: the truth
+    # through its own checks, the overlay merged into the default config against the schema.
+    from catenary.schema import check
+    from catenary.truth import load_truth
+
+    spec = load_truth(ROOT / "config" / "line" / "line_1000_campaign.yaml", catenary)
+    spans = {t: sum(s.n_spans for s in spec.sections if s.span_type == t) for t in ("N2", "N3")}
+    assert len(spec.sections) == 50 and spans == {"N2": 500, "N3": 500}
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    overlay = yaml.safe_load((ROOT / "config" / "line" / "line_1000.yaml").read_text())
+    merged = copy.deepcopy(config)
+    for key, value in overlay.items():
+        if isinstance(value, dict):
+            merged[key] = {**merged[key], **{k: {**merged[key].get(k, {}), **v} if isinstance(v, dict) else v
+                                             for k, v in value.items()}}
+        else:
+            merged[key] = value
+    check(merged, "config")
+    assert "messenger_tension_n" in merged["diagnosis"]["start"]["random_inputs"]
