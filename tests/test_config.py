@@ -48,6 +48,8 @@ def test_missing_file_is_named(tmp_path):
 def test_the_line_of_make_bench_line_is_a_thousand_spans_of_both_types(catenary):
     # The truth and overlay of `make bench-line` are read as the workflow reads them: the truth
     # through its own checks, the overlay merged into the default config against the schema.
+    from snakemake.utils import update_config
+
     from catenary.schema import check
     from catenary.truth import load_truth
 
@@ -57,11 +59,6 @@ def test_the_line_of_make_bench_line_is_a_thousand_spans_of_both_types(catenary)
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     overlay = yaml.safe_load((ROOT / "config" / "line" / "line_1000.yaml").read_text())
     merged = copy.deepcopy(config)
-    for key, value in overlay.items():
-        if isinstance(value, dict):
-            merged[key] = {**merged[key], **{k: {**merged[key].get(k, {}), **v} if isinstance(v, dict) else v
-                                             for k, v in value.items()}}
-        else:
-            merged[key] = value
+    update_config(merged, overlay)              # Snakemake's own merge of --configfile overlays
     check(merged, "config")
     assert "messenger_tension_n" in merged["diagnosis"]["start"]["random_inputs"]
