@@ -67,10 +67,10 @@ bench-line: setup
 
 # Campaigns of known truth through the whole pipeline (config/validation/): the identification's
 # validation table, the model-form differences and every hidden-effect campaign's diagnosis
-# (results/validation/diagnosis.csv); ≈ 2 h on 2 cores. See benchmarks/validate.py.
+# (results/validation/diagnosis.csv), then the replicate tests (pytest -m validation); its wall time
+# goes to results/benchmarks.json (validate_wall_time_s). See benchmarks/validate.py.
 validate: setup
 	$(BIN)/python benchmarks/validate.py --cores $(CORES)
-	$(BIN)/python -m pytest -m validation
 
 clean:
 	rm -rf results .snakemake
