@@ -250,3 +250,35 @@ def test_the_verdict_and_its_figures_do_not_depend_on_the_workers(catenary, n2):
         assert (a.effect, a.delta_loglik, a.p_value, a.n_evaluations) == (b.effect, b.delta_loglik, b.p_value,
                                                                           b.n_evaluations)
     assert (one.steps[0].verdict, one.steps[0].effect) == (two.steps[0].verdict, two.steps[0].effect)
+
+
+def test_a_leading_refit_that_spent_its_budget_is_restarted_and_only_gains(catenary, n2):
+    # The verdict rests on the two best candidates by BIC: a refit of theirs stopped by
+    # max_evaluations is restarted once from its best point (its J can only rise, its budget
+    # adds up); the others keep their single run. A budget of 60 evaluations stops every refit
+    # of these 14-coordinate models (Nelder–Mead needs hundreds): the two best must show more
+    # than 60 evaluations and a Δℓ at least that of their first run, the third exactly 60.
+    from catenary.diagnosis import runner
+
+    settings = DiagnosisSettings.from_mapping({"n_samples": 500, "max_steps": 1, "bootstrap_replicates": 100,
+                                               "max_evaluations": 60, "candidates": [
+                                                   "messenger_tension_variability", "dropper_creep",
+                                                   "contact_tension_variability"]})
+    sampler = make_sampler(n2, catenary, IDENT, settings, ("messenger_tension_variability",))
+    means, sigmas = _laws(sampler)
+    data = simulate_spans(sampler, means, sigmas, {"messenger_tension_variability": {"std_n": 800.0}}, 30,
+                          seed=24, noise_std_m=0.0006)
+    run = diagnose(n2, catenary, data, IDENT, settings)
+    ranked = sorted(run.steps[0].candidates, key=lambda c: c.bic)
+    first = {}
+    base = settings.base(IDENT)
+    cands, _ = runner.applicable_candidates(settings, base, n2.n_droppers, False)
+    ctx = runner._Context(n2, catenary, data, base, settings, None, 36.0, cands, None)
+    problem = ctx.problem(())
+    for c in ranked[:2]:
+        assert c.n_evaluations > 60
+        first[c.effect] = runner._test_candidate(ctx, (), run.start, runner._base_moments(ctx, problem, run.start.theta),
+                                                 c.effect, len(cands))[0]
+        assert first[c.effect].n_evaluations == 60 and not first[c.effect].converged
+        assert c.delta_loglik >= first[c.effect].delta_loglik - 1e-9
+    assert ranked[2].n_evaluations == 60
