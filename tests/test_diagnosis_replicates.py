@@ -1,8 +1,8 @@
 """The diagnosis over replicate data sets: false alarms without a missing effect, each
 distinguishable effect named when hidden alone, and two effects named strongest first.
 
-Run by ``make validate`` only (marker ``validation``): the 20 null replicates alone took more
-than 45 min on CI's 2 cores, beyond the budget of ``make test-slow``.
+Run by ``make validate`` only (marker ``validation``), as the long validations are: the five
+tests took 10.7 min on 2 cores (``validate_replicates_s`` in ``results/benchmarks.json``).
 
 Replicates are drawn at the level of W: 117 independent spans of the paper's Table 2 laws
 through the sampler the diagnosis itself uses (the campaign's effect functions and the fast
