@@ -229,6 +229,18 @@ def test_too_few_spans_are_refused_before_any_fit(catenary, n2):
         diagnose(n2, catenary, data, IDENT, SETTINGS, n_left_out=13)
 
 
+def _small_tension_case(catenary, n2, max_evaluations: int, candidates: list[str], n_spans: int, seed: int):
+    """Settings of a small one-step diagnosis (N = 500) and ``n_spans`` spans with an 800 N
+    per-span T_MW spread drawn through its sampler, plus the correction's 0.6 mm residual."""
+    settings = DiagnosisSettings.from_mapping({"n_samples": 500, "max_steps": 1, "bootstrap_replicates": 100,
+                                               "max_evaluations": max_evaluations, "candidates": candidates})
+    sampler = make_sampler(n2, catenary, IDENT, settings, ("messenger_tension_variability",))
+    means, sigmas = _laws(sampler)
+    data = simulate_spans(sampler, means, sigmas, {"messenger_tension_variability": {"std_n": 800.0}}, n_spans,
+                          seed=seed, noise_std_m=0.0006)
+    return settings, data
+
+
 @pytest.mark.slow
 def test_the_verdict_and_its_figures_do_not_depend_on_the_workers(catenary, n2):
     # The candidates' refits are independent and deterministic: run by one process in config
@@ -236,14 +248,8 @@ def test_the_verdict_and_its_figures_do_not_depend_on_the_workers(catenary, n2):
     # and finish in any order, they give the same tests, in config order. Small design (N = 500,
     # 40 spans, 3 candidates, one step): both runs took 3.2 min on 2 cores shared with another
     # run (`make test-slow`).
-    settings = DiagnosisSettings.from_mapping({"n_samples": 500, "max_steps": 1, "bootstrap_replicates": 100,
-                                               "max_evaluations": 300, "candidates": [
-                                                   "messenger_tension_variability", "dropper_creep",
-                                                   "cw_longitudinal_offset"]})
-    sampler = make_sampler(n2, catenary, IDENT, settings, ("messenger_tension_variability",))
-    means, sigmas = _laws(sampler)
-    data = simulate_spans(sampler, means, sigmas, {"messenger_tension_variability": {"std_n": 800.0}}, 40,
-                          seed=23, noise_std_m=0.0006)
+    settings, data = _small_tension_case(catenary, n2, 300, ["messenger_tension_variability", "dropper_creep",
+                                                             "cw_longitudinal_offset"], n_spans=40, seed=23)
     one, two = (diagnose(n2, catenary, data, IDENT, settings, workers=w) for w in (1, 2))
     assert [c.effect for c in two.steps[0].candidates] == list(settings.candidates)
     for a, b in zip(one.steps[0].candidates, two.steps[0].candidates):
@@ -260,25 +266,17 @@ def test_a_leading_refit_that_spent_its_budget_is_restarted_and_only_gains(caten
     # than 60 evaluations and a Δℓ at least that of their first run, the third exactly 60.
     from catenary.diagnosis import runner
 
-    settings = DiagnosisSettings.from_mapping({"n_samples": 500, "max_steps": 1, "bootstrap_replicates": 100,
-                                               "max_evaluations": 60, "candidates": [
-                                                   "messenger_tension_variability", "dropper_creep",
-                                                   "contact_tension_variability"]})
-    sampler = make_sampler(n2, catenary, IDENT, settings, ("messenger_tension_variability",))
-    means, sigmas = _laws(sampler)
-    data = simulate_spans(sampler, means, sigmas, {"messenger_tension_variability": {"std_n": 800.0}}, 30,
-                          seed=24, noise_std_m=0.0006)
+    settings, data = _small_tension_case(catenary, n2, 60, ["messenger_tension_variability", "dropper_creep",
+                                                            "contact_tension_variability"], n_spans=30, seed=24)
     run = diagnose(n2, catenary, data, IDENT, settings)
     ranked = sorted(run.steps[0].candidates, key=lambda c: c.bic)
-    first = {}
     base = settings.base(IDENT)
     cands, _ = runner.applicable_candidates(settings, base, n2.n_droppers, False)
     ctx = runner._Context(n2, catenary, data, base, settings, None, 36.0, cands, None)
-    problem = ctx.problem(())
+    base_moments = runner._base_moments(ctx, ctx.problem(()), run.start.theta)
     for c in ranked[:2]:
         assert c.n_evaluations > 60
-        first[c.effect] = runner._test_candidate(ctx, (), run.start, runner._base_moments(ctx, problem, run.start.theta),
-                                                 c.effect, len(cands))[0]
-        assert first[c.effect].n_evaluations == 60 and not first[c.effect].converged
-        assert c.delta_loglik >= first[c.effect].delta_loglik - 1e-9
+        first = runner._test_candidate(ctx, (), run.start, base_moments, c.effect, len(cands))[0]
+        assert first.n_evaluations == 60 and not first.converged
+        assert c.delta_loglik >= first.delta_loglik - 1e-9
     assert ranked[2].n_evaluations == 60
