@@ -289,15 +289,17 @@ class ContactState:
     force_n: float = 0.0
 
 
-def quasi_static_heights(ops: CatenaryDynamics, chainage_m: np.ndarray, force_n: float) -> np.ndarray:
-    """CW height under an upward point force ``force_n`` [N] at each chainage, each a static
-    solve of the same catenary (dropper slackening and steady arms included) [m]."""
+def quasi_static_heights(ops: CatenaryDynamics, chainage_m: np.ndarray, force_n: float | np.ndarray) -> np.ndarray:
+    """CW height under an upward point force ``force_n`` [N] (one, or one per point) at each
+    chainage, each a static solve of the same catenary (dropper slackening and steady arms
+    included) [m]."""
     solver = PseudoForceSolver(ops, ops.k0)
     slack = np.zeros(ops.dropper_k.size, dtype=bool)
     out = np.empty(len(chainage_m))
+    forces = np.broadcast_to(np.asarray(force_n, dtype=float), out.shape)
     for i, s in enumerate(np.asarray(chainage_m, dtype=float)):
         dofs, shape = ops.contact_vector(s)
-        contact = ContactState(dofs, shape, force_n=force_n)
+        contact = ContactState(dofs, shape, force_n=float(forces[i]))
         u, _, slack, _, _ = solver.equilibrium(ops.f_const, slack, contact)
         out[i] = shape @ u[dofs]
     return out
@@ -371,32 +373,87 @@ class RunResult:
     slack_droppers: np.ndarray
 
 
+def _profile_values(profile: tuple[np.ndarray, np.ndarray], name: str) -> tuple[np.ndarray, np.ndarray]:
+    knots, values = (np.asarray(a, dtype=float) for a in profile)
+    if knots.ndim != 1 or knots.shape != values.shape or knots.size < 2 or np.any(np.diff(knots) <= 0):
+        raise ValueError(f"{name}: expected (chainage_m, values) of equal length ≥ 2 with increasing chainages")
+    if np.any(~np.isfinite(values)):
+        raise ValueError(f"{name}: expected finite values")
+    return knots, values
+
+
+def contact_path(start_m: float, end_m: float, speed_m_s: float, time_step_s: float,
+                 speed_profile: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Chainage of the contact point at each time step from ``start_m`` to ``end_m`` [m].
+
+    At constant speed ``x_k = start + v k Δt``. With ``speed_profile = (chainage_m, speed_m_s)``
+    the speed varies along the line (linear between the knots, held beyond them): the time to
+    reach ``x`` is ``t(x) = ∫ dx / v(x)`` (trapezoidal on a grid of ≤ 0.05 m, far finer than the
+    10 m or more over which a train's speed changes) and ``x_k`` is read off ``t(x)`` at
+    ``k Δt``.
+    """
+    if speed_profile is None:
+        n_steps = int(np.floor((end_m - start_m) / (speed_m_s * time_step_s))) + 1
+        return start_m + speed_m_s * (np.arange(n_steps) * time_step_s)
+    knots, v = _profile_values(speed_profile, "speed_profile")
+    if np.any(v <= 0):
+        raise ValueError(f"speed_profile: expected speeds > 0 [m/s], got a minimum of {v.min()}")
+    grid = np.linspace(start_m, end_m, int(np.ceil((end_m - start_m) / 0.05)) + 1)
+    slowness = 1.0 / np.interp(grid, knots, v)
+    t = np.concatenate([[0.0], np.cumsum(0.5 * (slowness[1:] + slowness[:-1]) * np.diff(grid))])
+    n_steps = int(np.floor(t[-1] / time_step_s + 1e-9)) + 1   # 1e-9: the round-off of t(x)
+    return np.interp(np.arange(n_steps) * time_step_s, t, grid)
+
+
 def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: float, *,
                    start_m: float | None = None, end_m: float | None = None,
-                   time_step_s: float | None = None) -> RunResult:
-    """Run ``pantograph`` at constant ``speed_m_s`` over the section from ``start_m`` to ``end_m``.
+                   time_step_s: float | None = None,
+                   speed_profile: tuple[np.ndarray, np.ndarray] | None = None,
+                   force_profile: tuple[np.ndarray, np.ndarray] | None = None) -> RunResult:
+    """Run ``pantograph`` over the section from ``start_m`` to ``end_m``.
 
-    The run starts from the static equilibrium of catenary and pantograph with the mean
-    uplift force at ``start_m`` (default: the first mast); ``time_step_s`` defaults to the
+    The run starts from the static equilibrium of catenary and pantograph with the uplift
+    force at ``start_m`` (default: the first mast); ``time_step_s`` defaults to the
     catenary's dynamics settings.
+
+    Parameters
+    ----------
+    speed_m_s : float
+        Train speed [m/s]; constant unless ``speed_profile`` is given.
+    speed_profile : (numpy.ndarray, numpy.ndarray), optional
+        ``(chainage_m, speed_m_s)``: the speed along the line [m/s] (see :func:`contact_path`).
+        The uplift force then follows the local speed's aerodynamic part.
+    force_profile : (numpy.ndarray, numpy.ndarray), optional
+        ``(chainage_m, delta_force_n)``: a fluctuation of the regulated uplift force along the
+        line [N], added to the mean force (linear between the knots, held beyond them).
     """
     settings = ops.settings
     dt = settings.time_step_s if time_step_s is None else time_step_s
     masts = ops.section.mast_chainage_m
     start = masts[0] if start_m is None else start_m
     end = masts[-1] if end_m is None else end_m
-    n_steps = int(np.floor((end - start) / (speed_m_s * dt))) + 1
+    x_steps = contact_path(start, end, speed_m_s, dt, speed_profile)
+    n_steps = x_steps.size
+    f_mean = pantograph.mean_force_n(speed_m_s)
+    if speed_profile is None:
+        force_steps = np.full(n_steps, f_mean)
+    else:
+        knots, v = _profile_values(speed_profile, "speed_profile")
+        force_steps = pantograph.mean_force_n(np.interp(x_steps, knots, v))
+    if force_profile is not None:
+        knots, delta = _profile_values(force_profile, "force_profile")
+        force_steps = force_steps + np.interp(x_steps, knots, delta)
+    f_start = float(force_steps[0])
     beta, gamma = NEWMARK_BETA, NEWMARK_GAMMA
     a0, a1 = 1 / (beta * dt**2), gamma / (beta * dt)
     a2, a3 = 1 / (beta * dt), 1 / (2 * beta) - 1
     a4, a5 = gamma / beta - 1, dt / 2 * (gamma / beta - 2)
     k_c = settings.contact_stiffness_n_m
-    f_mean = pantograph.mean_force_n(speed_m_s)
 
     # Initial static equilibrium of catenary and pantograph at the start.
     static_solver = PseudoForceSolver(ops, ops.k0)
     reference = float(np.mean(ops.gravity_state.cw_height_at(np.linspace(start, end, 201))))
-    u, slack, f0, head0 = _initial_equilibrium(ops, static_solver, pantograph, start, f_mean, reference, k_c)
+    u, slack, f0, head0 = _initial_equilibrium(ops, static_solver, pantograph, start, f_start, reference, k_c)
     v = np.zeros_like(u)
     acc = np.zeros_like(u)
 
@@ -407,11 +464,11 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
     k_eff_p_inv = np.linalg.inv(k_eff_p)
     p_flex = -k_eff_p_inv[:, 0]  # response to a unit downward force on the head
     # Pantograph DOFs: displacements from the reference configuration (head at ``reference``,
-    # springs carrying the mean force); static start: K y = e_h (f_mean − f0).
+    # springs carrying the starting force); static start: K y = e_h (f_start − f0).
     if np.isinf(pantograph.head_flexibility_m_n):
         y = np.full(pantograph.n_masses, head0 - reference)  # constant force: rigid shift
     else:
-        y = np.linalg.solve(k_p, e_h * (f_mean - f0))
+        y = np.linalg.solve(k_p, e_h * (f_start - f0))
     yv, ya = np.zeros_like(y), np.zeros_like(y)
 
     solver = PseudoForceSolver(ops, ops.k0 + a0 * ops.mass + a1 * ops.damping)
@@ -424,19 +481,19 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
     kd = rows.shape[1] - 1                    # K_eff's half-bandwidth, which M and C share
     exact = ops._lam is not None
     status, bad_step = newmark_contact_loop(
-        n_steps, dt, start, speed_m_s, np.array([a0, a1, a2, a3, a4, a5, gamma]), ops.f_const,
+        n_steps, dt, x_steps, force_steps, np.array([a0, a1, a2, a3, a4, a5, gamma]), ops.f_const,
         band_diagonals(ops.mass, kd), band_diagonals(ops.damping, kd), rows, inv_diag_sq,
         np.ascontiguousarray(solver.z.T), solver.d, ops.dropper_mw.astype(np.int64), ops.dropper_cw.astype(np.int64),
         ops.dropper_k.astype(float), ops.dropper_l.astype(float), ops.mesh.x_m.astype(float),
         ops._lam if exact else np.zeros(1), ops._basis_inverse if exact else np.zeros((1, 4, 4)), exact,
-        ops._element_free_dofs.astype(np.int64), m_p, c_p, k_eff_p_inv, p_flex, f_mean, reference, k_c,
+        ops._element_free_dofs.astype(np.int64), m_p, c_p, k_eff_p_inv, p_flex, reference, k_c,
         mast_dofs.astype(np.int64), static_mast, u, v, acc, y, yv, ya, np.asarray(slack, dtype=np.bool_),
         True, f0, solver.max_iterations, out["f"], out["w"], out["head"], out["slack"], uplift)
     if status != 0:
         raise ConvergenceError(f"dropper/contact states did not settle in {solver.max_iterations} iterations "
-                               f"at step {bad_step} (chainage {start + speed_m_s * bad_step * dt:.2f} m)")
+                               f"at step {bad_step} (chainage {x_steps[bad_step]:.2f} m)")
     out["t"] = np.arange(n_steps) * dt
-    out["x"] = start + speed_m_s * out["t"]
+    out["x"] = x_steps
     return RunResult(time_s=out["t"], chainage_m=out["x"], contact_force_n=out["f"], cw_height_m=out["w"],
                      head_height_m=out["head"], support_uplift_m=uplift, slack_droppers=out["slack"].astype(int))
 

@@ -145,9 +145,9 @@ def _shape(x_nodes, lam, basis_inverse, exact, e, x):
 
 
 @njit(cache=True)
-def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_diagonals, c_diagonals,
+def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, f_const, m_diagonals, c_diagonals,
                          rows, inv_diag_sq, z_t, dd, dropper_mw, dropper_cw, dropper_k, dropper_l,
-                         x_nodes, lam, basis_inverse, exact, element_dofs, m_p, c_p, k_eff_p_inv, p_flex, f_mean,
+                         x_nodes, lam, basis_inverse, exact, element_dofs, m_p, c_p, k_eff_p_inv, p_flex,
                          reference, k_c, mast_dofs, static_mast, u, v, acc, y, yv, ya, slack, touching, f_c,
                          max_iterations, out_f, out_w, out_head, out_slack, out_uplift):
     """The time loop of ``run_pantograph`` from its initial state; fills the ``out_*`` arrays.
@@ -156,6 +156,8 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_dia
     factorised in ``rows``, ``inv_diag_sq`` (:func:`band_rows`), M and C are given by their
     diagonals (:func:`band_diagonals`) and ``z_t[j]`` is K_eff⁻¹ g_j. Returns (status, step):
     status 1 when the dropper/contact states of ``step`` did not settle in ``max_iterations``.
+    ``x_steps[k]`` is the contact point's chainage [m] and ``force_steps[k]`` the uplift force
+    applied to the pantograph's head [N] at step ``k``.
     """
     a0, a1, a2, a3, a4, a5, gamma = (coefficients[0], coefficients[1], coefficients[2], coefficients[3],
                                      coefficients[4], coefficients[5], coefficients[6])
@@ -185,12 +187,11 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_dia
     e_star = np.empty(n_d)
     elongation = np.empty(n_d)
     e = 0
-    x = start
+    x = x_steps[0]
     while e < n_el - 1 and x_nodes[e + 1] <= x:
         e += 1
     for step in range(n_steps):
-        t = step * dt
-        x = start + speed * t
+        x = x_steps[step]
         while e < n_el - 1 and x_nodes[e + 1] <= x:
             e += 1
         full = _shape(x_nodes, lam, basis_inverse, exact, e, x)
@@ -205,7 +206,7 @@ def newmark_contact_loop(n_steps, dt, start, speed, coefficients, f_const, m_dia
             banded_products(m_diagonals, c_diagonals, p, q, f_const, rhs)
             # Pantograph predictor.
             rhs_p = np.zeros(n_p)
-            rhs_p[0] = f_mean
+            rhs_p[0] = force_steps[step]
             pp = a0 * y + a2 * yv + a3 * ya
             qp = a1 * y + a4 * yv + a5 * ya
             rhs_p += m_p @ pp + c_p @ qp

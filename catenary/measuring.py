@@ -1,7 +1,8 @@
 """The measuring pass: what a recording car reports over a section.
 
-The measuring pantograph runs at constant speed and pushes the contact wire up; the car
-records the height of the contact point, which the paper calls the *dynamic sag*. Two modes:
+The measuring pantograph runs along the section (at constant speed, or along a speed profile,
+in either direction) and pushes the contact wire up; the car records the height of the contact
+point, which the paper calls the *dynamic sag*. Two modes:
 
 ``dynamic``
     the time-domain pantograph run of :mod:`catenary.dynamics`;
@@ -48,7 +49,9 @@ class MeasuredHeights:
 
 def measuring_pass(section: Section, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,
                    sampling_step_m: float | None = None, mode: str = "dynamic", time_step_s: float | None = None,
-                   ops: CatenaryDynamics | None = None, chainage_m: np.ndarray | None = None) -> MeasuredHeights:
+                   ops: CatenaryDynamics | None = None, chainage_m: np.ndarray | None = None,
+                   direction: int = 1, speed_profile: tuple[np.ndarray, np.ndarray] | None = None,
+                   force_profile: tuple[np.ndarray, np.ndarray] | None = None) -> MeasuredHeights:
     """Contact-point heights of ``pantograph`` over ``section`` every ``sampling_step_m``.
 
     Parameters
@@ -66,7 +69,16 @@ def measuring_pass(section: Section, catenary: Catenary, pantograph: Pantograph,
     time_step_s : float, optional
         Integration step of the dynamic mode (default: the catenary's setting).
     ops : CatenaryDynamics, optional
-        Pre-assembled operators of ``section`` (re-used across calls).
+        Pre-assembled operators of ``section`` (re-used across calls; with ``direction=-1``,
+        of the mirrored section, :meth:`Section.mirrored`).
+    direction : {1, -1}
+        Direction of travel: 1 towards increasing chainage, -1 towards decreasing chainage
+        (the run over the mirrored section, reported at the original chainages).
+    speed_profile : (numpy.ndarray, numpy.ndarray), optional
+        ``(chainage_m, speed_m_s)``: the speed along the section (dynamic mode; the
+        quasi-static pass has no speed other than through the mean force).
+    force_profile : (numpy.ndarray, numpy.ndarray), optional
+        ``(chainage_m, delta_force_n)``: a fluctuation of the uplift force along the section [N].
     """
     if mode not in MODES:
         raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
@@ -77,14 +89,39 @@ def measuring_pass(section: Section, catenary: Catenary, pantograph: Pantograph,
         chainage = np.arange(masts[0], masts[-1] + 1e-9, sampling_step_m)
     else:
         raise ValueError(f"sampling_step_m: expected > 0 (or explicit chainage_m), got {sampling_step_m}")
+    if direction not in (1, -1):
+        raise ValueError(f"direction: expected 1 or -1, got {direction!r}")
+    length = masts[-1]
+    if direction == -1:
+        # run over the mirrored section: chainage x here is length − x there
+        section = section.mirrored()
+        chainage = length - chainage
+        speed_profile = _mirror_profile(speed_profile, length)
+        force_profile = _mirror_profile(force_profile, length)
     ops = ops or CatenaryDynamics(section, catenary)
     force = pantograph.mean_force_n(speed_m_s)
     if mode == "quasi_static":
+        # the static limit: the local force (the profile's fluctuation) at each point
+        if force_profile is not None:
+            force = force + np.interp(chainage, *force_profile)
         heights = quasi_static_heights(ops, chainage, force)
-        return MeasuredHeights(chainage, heights, np.full(chainage.size, force))
-    run = run_pantograph(ops, pantograph, speed_m_s, time_step_s=time_step_s)
-    return MeasuredHeights(chainage, np.interp(chainage, run.chainage_m, run.cw_height_m),
+        return MeasuredHeights(_back(chainage, length, direction), heights,
+                               np.broadcast_to(force, chainage.shape).astype(float))
+    run = run_pantograph(ops, pantograph, speed_m_s, time_step_s=time_step_s, speed_profile=speed_profile,
+                         force_profile=force_profile)
+    return MeasuredHeights(_back(chainage, length, direction), np.interp(chainage, run.chainage_m, run.cw_height_m),
                            np.interp(chainage, run.chainage_m, run.contact_force_n))
+
+
+def _mirror_profile(profile, length_m: float):
+    if profile is None:
+        return None
+    knots, values = (np.asarray(a, dtype=float) for a in profile)
+    return (length_m - knots)[::-1], values[::-1]
+
+
+def _back(chainage_m: np.ndarray, length_m: float, direction: int) -> np.ndarray:
+    return chainage_m if direction == 1 else length_m - chainage_m
 
 
 def force_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,

@@ -230,6 +230,33 @@ class Section:
         """A copy with other CW clamp offsets [m] (inclined droppers)."""
         return _replace(self, dropper_offset_m=dropper_offset_m)
 
+    def mirrored(self) -> "Section":
+        """The same section seen from its other end: chainage ``x`` becomes ``length − x``.
+
+        Spans, masts and droppers come in reverse order; a dropper at ``x`` from its span's left
+        mast sits at ``L − x`` from the new left mast, and its CW clamp offset changes sign.
+        A pantograph running towards decreasing chainage over this section is a pantograph
+        running towards increasing chainage over the mirrored one.
+        """
+        def flip(value):
+            value = np.asarray(value, dtype=float)
+            return float(value) if value.ndim == 0 else value[::-1].copy()
+
+        span = self.dropper_span[::-1]
+        return _replace(
+            self,
+            span_lengths_m=self.span_lengths_m[::-1].copy(),
+            dropper_span=self.n_spans - 1 - span,
+            dropper_x_m=self.span_lengths_m[span] - self.dropper_x_m[::-1],
+            dropper_lengths_m=self.dropper_lengths_m[::-1].copy(),
+            cw_support_heights_m=self.cw_support_heights_m[::-1].copy(),
+            system_heights_m=self.system_heights_m[::-1].copy(),
+            contact_tension_n=flip(self.contact_tension_n),
+            messenger_tension_n=flip(self.messenger_tension_n),
+            dropper_offset_m=-self.dropper_offset_m[::-1],
+            cw_mass_factor=flip(self.cw_mass_factor),
+        )
+
     def with_tensions(self, *, contact_tension_n: float | None = None,
                       messenger_tension_n: float | None = None) -> "Section":
         """A copy with other wire tensions [N]."""
