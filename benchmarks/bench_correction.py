@@ -35,8 +35,7 @@ def _correct(job: tuple[str, str]) -> pd.DataFrame:
     settings = replace(CorrectionSettings.from_mapping(CONFIG["correction"]), mode=mode)
     pantograph = load_pantographs(ROOT / CONFIG["pantographs"])[settings.pantograph]
     spans = _spans()
-    recording = read_table(RESULTS / "ingest" / "recording.parquet")
-    return correct_spans(spans[spans["section_id"] == section_id], recording, catenary, pantograph, settings)[0]
+    return correct_spans(spans[spans["section_id"] == section_id], catenary, pantograph, settings)[0]
 
 
 def main() -> None:

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.campaign import realized_truth
+from catenary.truth_checks import realized_truth
 from catenary.config import load_catenary
 from catenary.identification.dependence import adjacent_span_pairs
 from catenary.identification.report import run_identification

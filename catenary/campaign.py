@@ -2,10 +2,13 @@
 
 For each section of a :class:`~catenary.truth.Line`, the section model (its true dropper
 lengths, support heights, system heights and per-span tensions) is solved statically (the
-true static W) and run over by the measuring pantograph at the true measuring force (the true
-dynamic W and the clean recording). The sensor then adds Gaussian noise, quantisation,
-drop-outs (NaN runs) and spikes. Each section draws its sensor noise from its own seeded
-stream, so sections can be simulated in parallel and the result does not depend on the order.
+true static W) and run over by the measuring pantograph at the true measuring force, once per
+run of the car (:mod:`catenary.recording_car`: its direction, its speed along the run, its
+force): the true dynamic W of that run and its clean recording. The car then adds what it
+adds (:mod:`catenary.recording_car`): the sensor's noise, quantisation, drop-outs and spikes,
+its odometer's chainage and, when it records it, the stagger. Each section and run draws from
+its own seeded streams, so sections can be simulated in parallel and the result does not
+depend on the order.
 """
 
 from __future__ import annotations
@@ -17,9 +20,15 @@ import pyarrow as pa
 from .config import Catenary
 from .measuring import measuring_pass
 from .pantograph import Pantograph
+from .recording_car import MastTableErrors, RunSpec, mast_stagger, mast_table_with_errors, sensor as car_sensor, smooth_profile, stagger_at
 from .section import Section
 from .static import solve_static
-from .truth import Line, Measurement
+from .truth import Line, Measurement, TruthSpec
+
+#: Spacing of the knots of a run's speed profile [m] (its correlation length is hundreds of m).
+SPEED_KNOT_SPACING_M = 2.0
+#: Spacing of the knots of a run's force profile [m] (a regulated force fluctuates over metres).
+FORCE_KNOT_SPACING_M = 0.25
 
 
 def section_model(line: Line, k: int, catenary: Catenary) -> tuple[Section, np.ndarray]:
@@ -56,40 +65,90 @@ def deflections_from_heights(section: Section, heights_at_droppers: np.ndarray, 
 
 
 def simulate_section(line: Line, k: int, catenary: Catenary, pantograph: Pantograph, measurement: Measurement,
-                     seed: int) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Recording samples and truth rows of section ``k``.
+                     seed: int) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Recording samples and truth rows of section ``k``, for every run of the car.
 
     Returns
     -------
     recording : DataFrame
-        ``chainage_m`` (line chainage), ``height_m`` (with sensor effects), ``speed_kmh``,
-        ``force_n`` (the declared force), ``run_id``.
+        Per run, in time order: ``chainage_m`` (as the run's odometer records it), ``height_m``
+        (with sensor effects), ``speed_kmh`` (the run's speed there), ``force_n`` (the declared
+        force), ``stagger_m`` (NaN unless recorded; seen from the car, so its sign flips with the
+        direction), ``run_id``, ``direction``.
     truth : DataFrame
-        One row per span: ids, type, every true parameter, ``static_w*_m`` and ``dynamic_w*_m``.
+        One row per span: ids, type, every true parameter, ``static_w*_m`` and the first run's
+        ``dynamic_w*_m``.
+    truth_runs : DataFrame
+        One row per span and run: ``span_id``, ``run_id``, ``direction``, ``speed_kmh`` (mean over
+        the span), ``dynamic_w*_m``, ``recorded_start_chainage_m`` and ``recorded_end_chainage_m``
+        (the run's odometer at the span's masts).
     """
     section, spans = section_model(line, k, catenary)
     offset = line.masts["chainage_m"][line.spans["left_mast"][spans[0]]]
     static_w = solve_static(section, catenary).dropper_deflection_m().reshape(section.n_spans, -1)
-
     masts_x = section.mast_chainage_m
     grid = np.arange(masts_x[0], masts_x[-1] + 1e-9, measurement.sampling_step_m)
     exact = np.concatenate([section.dropper_chainage_m, masts_x])
     force = line.params.measuring_force_n
-    heights = measuring_pass(section, catenary, pantograph.with_static_force(force),
-                             speed_m_s=measurement.speed_kmh / 3.6, mode=measurement.mode,
-                             time_step_s=measurement.time_step_s, chainage_m=np.concatenate([grid, exact])).height_m
-    clean, at_exact = heights[:grid.size], heights[grid.size:]
     n_d = section.dropper_x_m.size
-    dynamic_w = deflections_from_heights(section, at_exact[:n_d], at_exact[n_d:])
+    line_x = line.masts["chainage_m"]
+    mast_index = np.concatenate([line.spans["left_mast"][spans], [line.spans["left_mast"][spans[-1]] + 1]])
+    base = [line_seed(line), seed, k]
+    parts, runs_rows, first_dynamic = [], [], None
+    for run in measurement.runs:
+        extra = {}
+        speed_kmh = np.full(grid.size, measurement.speed_kmh)
+        if run.direction != 1:
+            extra["direction"] = run.direction
+        if run.speed_variation.std > 0:
+            knots = np.arange(masts_x[0], masts_x[-1] + SPEED_KNOT_SPACING_M, SPEED_KNOT_SPACING_M)
+            v = _run_speed_kmh(knots + offset, measurement, run, base)
+            extra["speed_profile"] = (knots, v / 3.6)
+            speed_kmh = np.interp(grid, knots, v)
+        if run.force_variation.std > 0:
+            knots = np.arange(masts_x[0], masts_x[-1] + FORCE_KNOT_SPACING_M, FORCE_KNOT_SPACING_M)
+            extra["force_profile"] = (knots, smooth_profile(knots + offset, run.force_variation.std,
+                                                            run.force_variation.length_m, run.stream(base[0], seed, 2)))
+        heights = measuring_pass(section, catenary, pantograph.with_static_force(force),
+                                 speed_m_s=measurement.speed_kmh / 3.6, mode=measurement.mode,
+                                 time_step_s=measurement.time_step_s, chainage_m=np.concatenate([grid, exact]),
+                                 **extra).height_m
+        clean, at_exact = heights[:grid.size], heights[grid.size:]
+        dynamic_w = deflections_from_heights(section, at_exact[:n_d], at_exact[n_d:])
+        first_dynamic = dynamic_w if first_dynamic is None else first_dynamic
+        rng = np.random.default_rng(run.stream(*base))
+        recorded = car_sensor(grid, clean, measurement.noise_std_m, measurement.quantisation_m,
+                              measurement.dropout_rate_per_km, measurement.dropout_length_m,
+                              measurement.spike_rate_per_km, measurement.spike_height_m, rng)
+        stagger = np.full(grid.size, np.nan)
+        if measurement.stagger is not None:
+            at_masts = mast_stagger(line_x.size, measurement.stagger, [base[0], seed, 4])[mast_index]
+            stagger = run.direction * (stagger_at(grid, masts_x, at_masts)
+                                       + measurement.stagger.noise_std_m * rng.standard_normal(grid.size))
+        start = line_x.min() if run.direction == 1 else line_x.max()
+        drift_seed = run.stream(base[0], seed, 3)
+        chainage = run.odometer.recorded(grid + offset, start, drift_seed) if not run.odometer.exact else grid + offset
+        part = pd.DataFrame({"chainage_m": chainage, "height_m": recorded, "speed_kmh": speed_kmh,
+                             "force_n": np.full(grid.size, measurement.force_n), "stagger_m": stagger,
+                             "run_id": np.full(grid.size, run.run_id), "direction": np.full(grid.size, run.direction)})
+        parts.append(part.iloc[::run.direction].reset_index(drop=True))
+        ends = run.odometer.recorded(masts_x + offset, start, drift_seed)
+        mean_speed = [float(np.mean(speed_kmh[(grid >= a) & (grid <= b)])) for a, b in zip(masts_x[:-1], masts_x[1:])]
+        rows = {"span_id": line.spans["span_id"][spans], "run_id": np.full(spans.size, run.run_id),
+                "direction": np.full(spans.size, run.direction), "speed_kmh": mean_speed,
+                "recorded_start_chainage_m": ends[:-1], "recorded_end_chainage_m": ends[1:]}
+        rows.update({f"dynamic_w{i + 1}_m": dynamic_w[:, i] for i in range(dynamic_w.shape[1])})
+        runs_rows.append(pd.DataFrame(rows))
+    truth = _truth_rows(line, spans, section, offset, static_w, first_dynamic, force)
+    return pd.concat(parts, ignore_index=True), truth, pd.concat(runs_rows, ignore_index=True)
 
-    rng = np.random.default_rng([line_seed(line), seed, k])
-    recorded = sensor(grid, clean, measurement, rng)
-    recording = pd.DataFrame({"chainage_m": grid + offset, "height_m": recorded,
-                              "speed_kmh": np.full(grid.size, measurement.speed_kmh),
-                              "force_n": np.full(grid.size, measurement.force_n),
-                              "run_id": np.full(grid.size, "campaign")})
-    truth = _truth_rows(line, spans, section, offset, static_w, dynamic_w, force)
-    return recording, truth
+
+def _run_speed_kmh(x_m: np.ndarray, measurement: Measurement, run: RunSpec, base: list[int]) -> np.ndarray:
+    """A run's speed at line chainages ``x_m`` [km/h]: the measurement's mean plus the run's smooth
+    variation, kept within half and one and a half times the mean."""
+    v = measurement.speed_kmh + smooth_profile(x_m, run.speed_variation.std, run.speed_variation.length_m,
+                                               run.stream(base[0], base[1], 1))
+    return np.clip(v, 0.5 * measurement.speed_kmh, 1.5 * measurement.speed_kmh)
 
 
 def static_truth(line: Line, catenary: Catenary) -> pd.DataFrame:
@@ -115,17 +174,9 @@ def line_seed(line: Line) -> int:
 
 
 def sensor(chainage_m: np.ndarray, height_m: np.ndarray, m: Measurement, rng: np.random.Generator) -> np.ndarray:
-    """Recorded heights: noise, quantisation, drop-outs (NaN runs) and single-sample spikes."""
-    h = height_m + m.noise_std_m * rng.standard_normal(height_m.size)
-    if m.quantisation_m > 0:
-        h = m.quantisation_m * np.round(h / m.quantisation_m)
-    length_km = (chainage_m[-1] - chainage_m[0]) / 1e3
-    for start in rng.uniform(chainage_m[0], chainage_m[-1], rng.poisson(m.dropout_rate_per_km * length_km)):
-        h[(chainage_m >= start) & (chainage_m < start + m.dropout_length_m)] = np.nan
-    n_spikes = rng.poisson(m.spike_rate_per_km * length_km)
-    where = rng.integers(0, h.size, n_spikes)
-    h[where] += m.spike_height_m * rng.choice([-1.0, 1.0], n_spikes)
-    return h
+    """Recorded heights of the measurement ``m``'s sensor (:func:`catenary.recording_car.sensor`)."""
+    return car_sensor(chainage_m, height_m, m.noise_std_m, m.quantisation_m, m.dropout_rate_per_km,
+                      m.dropout_length_m, m.spike_rate_per_km, m.spike_height_m, rng)
 
 
 def _truth_rows(line, spans, section, offset, static_w, dynamic_w, force) -> pd.DataFrame:
@@ -160,7 +211,7 @@ def _truth_rows(line, spans, section, offset, static_w, dynamic_w, force) -> pd.
 
 
 def masts_table(line: Line) -> pd.DataFrame:
-    """The masts file that catenary.recording reads (with span types and design CW heights)."""
+    """The true masts file that catenary.recording reads (with span types)."""
     m = line.masts
     span_type = np.empty(m["mast_id"].size, dtype=object)
     span_type[line.spans["left_mast"]] = line.spans["span_type"]
@@ -171,116 +222,24 @@ def masts_table(line: Line) -> pd.DataFrame:
                          "span_type": span_type.astype(str)})
 
 
+def campaign_masts(line: Line, spec: TruthSpec) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The masts file the campaign writes (with the mast-table errors it plants, ``mast_table``)
+    and what it did to each mast (:func:`catenary.recording_car.mast_table_with_errors`)."""
+    return mast_table_with_errors(masts_table(line), spec.mast_table or MastTableErrors())
+
+
+def gather_recording(parts: list[pd.DataFrame], spec: TruthSpec) -> pd.DataFrame:
+    """The sections' recordings as the car writes them: the runs one after the other (in the
+    campaign's order), each in time order (its chainage increasing or decreasing)."""
+    recording = pd.concat(parts, ignore_index=True)
+    order = {run.run_id: i for i, run in enumerate(spec.measurement.runs)}
+    key = recording["run_id"].map(order) * 1e9 + recording["direction"] * recording["chainage_m"]
+    return recording.iloc[np.argsort(key.to_numpy(), kind="stable")].reset_index(drop=True)
+
+
 def truth_schema(columns) -> pa.Schema:
-    """Arrow schema of the truth table: identifiers as strings, every other column float64."""
-    text = {"span_id", "section_id", "span_type"}
-    return pa.schema([pa.field(c, pa.string() if c in text else pa.float64(), nullable=False) for c in columns])
-
-
-def projection_round_trip(spans: pd.DataFrame, truth: pd.DataFrame) -> dict[str, float]:
-    """Compare projected W with the truth's dynamic and static W of the same spans [m]."""
-    merged = spans.merge(truth, on="span_id", suffixes=("", "_truth"))
-    n_d = len([c for c in spans.columns if c.startswith("w") and c.endswith("_m")])
-    w = merged[[f"w{i}_m" for i in range(1, n_d + 1)]].to_numpy()
-    dyn = merged[[f"dynamic_w{i}_m" for i in range(1, n_d + 1)]].to_numpy()
-    sta = merged[[f"static_w{i}_m" for i in range(1, n_d + 1)]].to_numpy()
-    return {
-        "n_spans": float(len(merged)),
-        "rms_vs_dynamic_m": float(np.sqrt(np.mean((w - dyn) ** 2))),
-        "max_abs_vs_dynamic_m": float(np.max(np.abs(w - dyn))) if len(merged) else float("nan"),
-        "rms_vs_static_m": float(np.sqrt(np.mean((w - sta) ** 2))),
-    }
-
-
-def correction_round_trip(corrected: pd.DataFrame, spans: pd.DataFrame, truth: pd.DataFrame) -> dict[str, float]:
-    """Corrected static W (converged spans) and the uncorrected projected W against the truth's
-    static W of the same spans [m]: the correction's accuracy and the size of the correction.
-
-    ``max_abs_mean_error_m`` and ``max_abs_mean_error_z`` look for a bias the RMS would hide: at
-    each dropper the mean error over the spans, and that mean in units of its standard error
-    (sample standard deviation / √n); the largest over the droppers. A correction with the
-    wrong measuring force, for example, leaves a mid-span-heavy mean error.
-    """
-    ok = corrected[corrected["converged"]]
-    n_d = len([c for c in ok.columns if c.startswith("w") and c.endswith("_m")])
-    cols = [f"w{i}_m" for i in range(1, n_d + 1)]
-    static = [f"static_w{i}_m" for i in range(1, n_d + 1)]
-    merged = ok[["span_id"] + cols].merge(truth[["span_id"] + static], on="span_id")
-    raw = spans[["span_id"] + cols].merge(truth[["span_id"] + static], on="span_id")
-    error = merged[cols].to_numpy() - merged[static].to_numpy()
-    raw_error = raw[cols].to_numpy() - raw[static].to_numpy()
-    per_span = np.sqrt(np.mean(error ** 2, axis=1)) if len(merged) else np.zeros(0)
-    if len(merged) > 1:
-        mean_error = error.mean(axis=0)
-        z = np.abs(mean_error) / (error.std(axis=0, ddof=1) / np.sqrt(len(merged)))
-        bias_m, bias_z = float(np.max(np.abs(mean_error))), float(np.max(z))
-    else:
-        bias_m = bias_z = float("nan")
-    return {
-        "n_spans": float(len(corrected)),
-        "n_converged": float(len(ok)),
-        "rms_corrected_vs_static_m": float(np.sqrt(np.mean(error ** 2))) if len(merged) else float("nan"),
-        "max_abs_corrected_vs_static_m": float(np.max(np.abs(error))) if len(merged) else float("nan"),
-        "max_span_rms_corrected_vs_static_m": float(np.max(per_span)) if per_span.size else float("nan"),
-        "max_abs_mean_error_m": bias_m,
-        "max_abs_mean_error_z": bias_z,
-        "rms_uncorrected_vs_static_m": float(np.sqrt(np.mean(raw_error ** 2))) if len(raw) else float("nan"),
-    }
-
-
-def realized_truth(truth: pd.DataFrame, span_ids) -> dict[str, tuple[float, float]]:
-    """Sample mean and standard deviation (ddof 1) of the true inputs over the spans ``span_ids``.
-
-    T_MW and every dropper length are per span; ΔH is per mast, so its figures are over the
-    distinct masts of those spans (a mast shared by two spans counts once, identified by its
-    chainage). Keys are the identification's input names (``messenger_tension_n``,
-    ``system_height_m``, ``dropper_<i>_length_m``); values ``(mean, std)`` in SI units.
-    """
-    spans = truth[truth["span_id"].isin(list(span_ids))]
-    masts = pd.concat([spans[["start_chainage_m", "system_height_left_m"]].set_axis(["chainage_m", "dh_m"], axis=1),
-                       spans[["end_chainage_m", "system_height_right_m"]].set_axis(["chainage_m", "dh_m"], axis=1)])
-    masts = masts.assign(chainage_m=masts["chainage_m"].round(6)).drop_duplicates("chainage_m")
-    out = {"messenger_tension_n": (float(spans["messenger_tension_n"].mean()),
-                                   float(spans["messenger_tension_n"].std(ddof=1))),
-           "system_height_m": (float(masts["dh_m"].mean()), float(masts["dh_m"].std(ddof=1)))}
-    for column in [c for c in truth.columns if c.startswith("dropper_") and c.endswith("_length_m")]:
-        out[column] = (float(spans[column].mean()), float(spans[column].std(ddof=1)))
-    return out
-
-
-def identification_round_trip(s_opt: pd.DataFrame, corrected: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:
-    """Identified laws against the realized truth of the spans they were identified from.
-
-    Parameters
-    ----------
-    s_opt : pandas.DataFrame
-        The identification's ``s_opt.csv`` (``parameter``, ``mu``, ``sigma``, ``mu_se``,
-        ``sigma_se``, ``mu_fixed``, ``status``).
-    corrected : pandas.DataFrame
-        The span type's ``corrected.parquet``: its converged spans are those identified from.
-    truth : pandas.DataFrame
-        The campaign's truth table.
-
-    Returns
-    -------
-    pandas.DataFrame
-        One row per identified quantity (free means and σ): ``parameter``, ``statistic``
-        (``mu`` or ``sigma``), ``estimate``, ``standard_error``, ``realized`` (sample mean or
-        standard deviation over the spans used, :func:`realized_truth`), ``z`` =
-        (estimate − realized) / standard_error, ``n_spans`` and the run's ``status``.
-    """
-    used = corrected.loc[corrected["converged"], "span_id"]
-    realized = realized_truth(truth, used)
-    rows = []
-    for r in s_opt.itertuples(index=False):
-        if r.parameter not in realized:
-            continue
-        stats = ([] if r.mu_fixed else [("mu", r.mu, r.mu_se, realized[r.parameter][0])])
-        stats.append(("sigma", r.sigma, r.sigma_se, realized[r.parameter][1]))
-        for statistic, estimate, se, true in stats:
-            rows.append({"parameter": r.parameter, "statistic": statistic, "estimate": float(estimate),
-                         "standard_error": float(se), "realized": true,
-                         "z": (float(estimate) - true) / float(se) if se > 0 else float("nan"),
-                         "n_spans": int(len(used)), "status": r.status})
-    return pd.DataFrame(rows, columns=["parameter", "statistic", "estimate", "standard_error", "realized", "z",
-                                       "n_spans", "status"])
+    """Arrow schema of the truth tables: identifiers as strings, ``direction`` int64, every other
+    column float64."""
+    text = {"span_id", "section_id", "span_type", "run_id"}
+    return pa.schema([pa.field(c, pa.string() if c in text else pa.int64() if c == "direction" else pa.float64(),
+                               nullable=False) for c in columns])

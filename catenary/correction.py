@@ -18,6 +18,19 @@ The corrected static W of a span is that of the model whose simulated pass last 
 measurement. The gap in W is the gap in height minus its chord between the span's two steady
 arms, so an error common to a whole span's heights does not count. Tensions and system heights
 stay at their design values: they are what the identification later treats as random.
+
+A span the projection rejected between measured ones (a drop-out, a cut it could not trust)
+still hangs in the line: it stays in the model, at the span type's design (its dropper table,
+the steady-arm heights its neighbours measured or the design height), is run over by the
+simulated pass and never corrected — so that its neighbours are not modelled as a section's end,
+with anchored wires and the pantograph starting there (that alone moved their corrected W by
+≈ 3 mm on the small campaign). Only the measured spans' gaps drive and stop the iteration.
+
+Each run of the recording is corrected on its own, with its own measuring pass: in its
+direction of travel (the pantograph's lag makes a run towards decreasing chainage report other
+heights than one towards increasing chainage) and at the local speed of each span (the median of
+the recording's ``speed_kmh`` over the span, as the projection gives it; a speed profile through
+the spans' middles, held beyond the first and last), not one speed per file.
 """
 
 from __future__ import annotations
@@ -29,7 +42,7 @@ import numpy as np
 import pandas as pd
 
 from .config import Catenary
-from .dropper_table import dropper_lengths_for_cw_heights
+from .dropper_table import dropper_lengths_for_cw_heights, presag_deflection_m
 from .errors import ConvergenceError, InputError
 from .measuring import measuring_pass
 from .schema import check
@@ -61,7 +74,7 @@ class CorrectionSettings:
         Name of the measuring pantograph in the pantographs file.
     speed_kmh, force_n : float
         Measuring speed [km/h] and static force [N] where the recording has no ``speed_kmh`` /
-        ``force_n`` column (otherwise the median over each run's samples is used).
+        ``force_n`` (otherwise each span's speed and the median force over the run of spans).
     quasi_static_start : bool
         In dynamic mode, first iterate with quasi-static passes to a tenth of the tolerance:
         they cost far less (the default campaign corrects in 5.2 s quasi-statically against
@@ -129,8 +142,53 @@ class RunCorrection:
     slack_droppers: np.ndarray | None = None
 
 
+def fill_unmeasured(rows: pd.DataFrame, report: pd.DataFrame, catenary: Catenary) -> pd.DataFrame:
+    """The spans of one run and section, measured ones (``rows``) and, between and around them,
+    the spans the projection rejected (``report`` rows of that run and section with a known span
+    type), in chainage order, with ``measured`` true or false (module docs).
+
+    A rejected span gets the design W (:func:`catenary.dropper_table.presag_deflection_m`) and the
+    steady-arm heights of its measured neighbours (the design height where none is measured)."""
+    rows = rows.assign(measured=True)
+    run_id, section_id = rows["run_id"].iloc[0], rows["section_id"].iloc[0]
+    extra = report[(report["run_id"] == run_id) & (report["section_id"] == section_id)
+                   & (report["status"] != "used") & (report["span_type"].fillna("") != "")
+                   & ~report["span_id"].isin(rows["span_id"])]
+    if extra.empty:
+        return rows
+    chain = pd.concat([rows, extra[["span_id", "run_id", "section_id", "span_type", "start_chainage_m",
+                                    "end_chainage_m", "length_m"]].assign(measured=False)], ignore_index=True)
+    chain = chain.sort_values("start_chainage_m", kind="stable").reset_index(drop=True)
+    contiguous = np.abs(chain["start_chainage_m"].to_numpy()[1:] - chain["end_chainage_m"].to_numpy()[:-1]) <= 1e-6
+    if not contiguous.all():
+        return rows                               # the report does not give an unbroken chain: as measured
+    for column in ("direction", "speed_kmh", "force_n"):
+        if column in rows:
+            chain[column] = chain[column].fillna(rows[column].iloc[0] if column == "direction" else np.nan)
+    left = chain["cw_height_left_m"].to_numpy(dtype=float).copy()
+    right = chain["cw_height_right_m"].to_numpy(dtype=float).copy()
+    for k in range(len(chain)):                  # a mast's height from the measured span that shares it
+        if not np.isfinite(left[k]) and k > 0 and np.isfinite(right[k - 1]):
+            left[k] = right[k - 1]
+        if not np.isfinite(right[k]) and k + 1 < len(chain) and np.isfinite(left[k + 1]):
+            right[k] = left[k + 1]
+    for k in range(len(chain) - 1, -1, -1):
+        if not np.isfinite(right[k]) and k + 1 < len(chain) and np.isfinite(left[k + 1]):
+            right[k] = left[k + 1]
+        if not np.isfinite(left[k]) and k > 0 and np.isfinite(right[k - 1]):
+            left[k] = right[k - 1]
+    design = np.array([catenary.span_type(t).cw_height_m for t in chain["span_type"]])
+    chain["cw_height_left_m"] = np.where(np.isfinite(left), left, design)
+    chain["cw_height_right_m"] = np.where(np.isfinite(right), right, design)
+    for k in np.flatnonzero(~chain["measured"].to_numpy(dtype=bool)):
+        st = catenary.span_type(chain.loc[k, "span_type"])
+        for i, w in enumerate(presag_deflection_m(st, st.dropper_positions_m)):
+            chain.loc[k, f"w{i + 1}_m"] = w
+    return chain
+
+
 def consecutive_runs(spans: pd.DataFrame) -> list[pd.DataFrame]:
-    """Split projected spans into runs of consecutive spans of one section.
+    """Split projected spans into runs of consecutive spans of one section and one measuring run.
 
     Parameters
     ----------
@@ -141,10 +199,11 @@ def consecutive_runs(spans: pd.DataFrame) -> list[pd.DataFrame]:
     -------
     list of pandas.DataFrame
         Each sorted by chainage; a run ends at a section change or where a span is missing
-        (rejected by the projection).
+        (rejected by the projection); the recording's runs apart (in order of appearance).
     """
     runs = []
-    for _, rows in spans.sort_values("start_chainage_m").groupby("section_id", sort=True):
+    keys = ["run_id", "section_id"] if "run_id" in spans.columns else ["section_id"]
+    for _, rows in spans.sort_values("start_chainage_m").groupby(keys, sort=False):
         rows = rows.reset_index(drop=True)
         breaks = np.flatnonzero(np.abs(rows["start_chainage_m"].to_numpy()[1:]
                                        - rows["end_chainage_m"].to_numpy()[:-1]) > CONTIGUITY_TOLERANCE_M) + 1
@@ -185,7 +244,8 @@ def run_section(rows: pd.DataFrame, catenary: Catenary, dropper_lengths_m: np.nd
 
 
 def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, speed_m_s: float,
-                settings: CorrectionSettings, log=None) -> RunCorrection:
+                settings: CorrectionSettings, log=None, *, direction: int = 1,
+                speed_profile: tuple[np.ndarray, np.ndarray] | None = None) -> RunCorrection:
     """Correct one run of consecutive spans (module docstring).
 
     Parameters
@@ -197,11 +257,15 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
     pantograph : Pantograph
         The measuring pantograph, at the recording's static force.
     speed_m_s : float
-        Measuring speed [m/s].
+        Measuring speed [m/s] (where no profile is given).
     settings : CorrectionSettings
     log : logging.Logger, optional
         Where each pass's progress goes (gap, spans within tolerance, elapsed time, estimate of
         the time left against the maximum number of passes).
+    direction : int
+        +1: the car ran towards increasing chainage; -1: towards decreasing.
+    speed_profile : (numpy.ndarray, numpy.ndarray), optional
+        Speed [m/s] along the run of spans, at chainages from its first mast [m].
 
     Returns
     -------
@@ -213,10 +277,20 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
     section = run_section(rows, catenary)
     n_d = np.bincount(section.dropper_span, minlength=len(rows))
     measured_d, measured_m = measured_heights(rows, section)
+    measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
+    # only measured spans have gaps: an unmeasured span keeps its design; a mast only unmeasured
+    # spans hold keeps its height
+    on_measured_d = measured[section.dropper_span]
+    on_measured_m = np.r_[measured, False] | np.r_[False, measured]
     points = np.concatenate([section.dropper_chainage_m, section.mast_chainage_m])
     static_d = measured_d.copy()       # first guess: the measurement is static
     history: list[tuple[str, np.ndarray]] = []
     empty = np.full((len(rows), n_d.max()), np.nan)
+    run_kwargs = {}
+    if direction != 1:
+        run_kwargs["direction"] = direction
+    if speed_profile is not None:
+        run_kwargs["speed_profile"] = speed_profile
     stages = [(settings.mode, settings.tolerance_m)]
     if settings.mode == "dynamic" and settings.quasi_static_start:
         # Cheap quasi-static passes remove most of the gap before the dynamic ones.
@@ -233,15 +307,17 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
                 inverse = dropper_lengths_for_cw_heights(section, catenary, static_d, allow_slack=True)
                 section = inverse.section
                 simulated = measuring_pass(section, catenary, pantograph, speed_m_s=speed_m_s, mode=mode,
-                                           time_step_s=settings.time_step_s, chainage_m=points).height_m
-                gap_d = measured_d - simulated[:measured_d.size]
-                gap_m = measured_m - simulated[measured_d.size:]
+                                           time_step_s=settings.time_step_s, chainage_m=points, **run_kwargs).height_m
+                gap_d = np.where(on_measured_d, measured_d - simulated[:measured_d.size], 0.0)
+                gap_m = np.where(on_measured_m, measured_m - simulated[measured_d.size:], 0.0)
                 gap_w = gap_d - section.chord_at_droppers(gap_m)
                 norms = np.sqrt(np.bincount(section.dropper_span, gap_w ** 2, minlength=len(rows)))
+                norms[~measured] = 0.0
                 history.append((mode, norms))
-                progress.update(done, f"largest gap {1e3 * _nanmax(norms):.3f} mm, {int(np.sum(norms < tolerance))} "
-                                f"of {len(rows)} spans within {1e3 * tolerance:.2f} mm")
-                if np.all(norms < tolerance):
+                progress.update(done, f"largest gap {1e3 * _nanmax(norms):.3f} mm, "
+                                f"{int(np.sum(norms[measured] < tolerance))} of {int(measured.sum())} spans within "
+                                f"{1e3 * tolerance:.2f} mm")
+                if np.all(norms[measured] < tolerance):
                     break
     except ConvergenceError as exc:
         # Only a solver that did not settle is a property of this run; a ConfigError, an
@@ -274,41 +350,59 @@ def _passes(history: list[tuple[str, np.ndarray]], mode: str) -> int:
     return sum(m == mode for m, _ in history)
 
 
-def measuring_conditions(recording: pd.DataFrame, rows: pd.DataFrame,
-                         settings: CorrectionSettings) -> tuple[float, float]:
-    """Speed [m/s] and static force [N] of the measuring pass over a run: the medians of the
-    recording's ``speed_kmh`` and ``force_n`` between the run's first and last mast, or the
-    settings' values where the recording has no such column (or only missing values there)."""
-    inside = recording["chainage_m"].between(rows["start_chainage_m"].iloc[0], rows["end_chainage_m"].iloc[-1])
+def measuring_conditions(rows: pd.DataFrame, settings: CorrectionSettings
+                         ) -> tuple[float, float, int, tuple[np.ndarray, np.ndarray] | None]:
+    """How the car measured a run of consecutive spans: speed [m/s] (the median of the spans'),
+    static force [N] (the median of the spans' ``force_n``), direction of travel (±1) and, when the
+    spans' speeds differ, the speed profile through their middles (chainage from the run's first
+    mast [m], speed [m/s]). A span without a recorded speed or force takes the settings' value.
+
+    Raises
+    ------
+    InputError
+        A recorded speed or force that is not positive.
+    """
     values = []
     for column, default in (("speed_kmh", settings.speed_kmh), ("force_n", settings.force_n)):
-        data = recording.loc[inside, column].dropna() if column in recording else pd.Series(dtype=float)
-        value = float(data.median()) if len(data) else default
-        if not np.isfinite(value) or value <= 0:
-            raise InputError(f"recording: column {column} must be > 0 over the spans "
-                             f"{rows['span_id'].iloc[0]}…{rows['span_id'].iloc[-1]}; median {value}")
-        values.append(value)
-    return values[0] / 3.6, values[1]
+        data = rows[column].to_numpy(dtype=float) if column in rows else np.full(len(rows), np.nan)
+        data = np.where(np.isfinite(data), data, default)
+        bad = np.flatnonzero(data <= 0)
+        if bad.size:
+            raise InputError(f"recording: column {column} must be > 0; span {rows['span_id'].iloc[bad[0]]} has "
+                             f"a median of {data[bad[0]]}")
+        values.append(data)
+    speed_kmh, force = values
+    direction = int(rows["direction"].iloc[0]) if "direction" in rows else 1
+    profile = None
+    if np.ptp(speed_kmh) > 0:
+        start = rows["start_chainage_m"].to_numpy(dtype=float)
+        middle = 0.5 * (start + rows["end_chainage_m"].to_numpy(dtype=float)) - start[0]
+        profile = (middle, speed_kmh / 3.6)
+    return float(np.median(speed_kmh)) / 3.6, float(np.median(force)), direction, profile
 
 
-CORRECTED_BASE_COLUMNS = ["span_id", "section_id", "span_type", "start_chainage_m", "end_chainage_m", "length_m"]
+CORRECTED_BASE_COLUMNS = ["span_id", "run_id", "direction", "speed_kmh", "force_n", "section_id", "span_type",
+                          "start_chainage_m", "end_chainage_m", "length_m"]
 
 
-def correct_spans(spans: pd.DataFrame, recording: pd.DataFrame, catenary: Catenary, pantograph: Pantograph,
-                  settings: CorrectionSettings, log=None) -> tuple[pd.DataFrame, pd.DataFrame]:
+def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograph,
+                  settings: CorrectionSettings, log=None,
+                  report: pd.DataFrame | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Correct every run of consecutive spans in ``spans`` (module docstring).
 
     Parameters
     ----------
     spans : pandas.DataFrame
-        Projected spans (rows of the projection's ``spans.parquet`` with ``span_type``).
-    recording : pandas.DataFrame
-        The ingested recording (for the measuring speed and force).
+        Projected spans (rows of the projection's ``spans.parquet`` with ``span_type``), with their
+        run's ``run_id``, ``direction``, ``speed_kmh`` and ``force_n``.
     catenary : Catenary
     pantograph : Pantograph
         The measuring pantograph; its static force is set to the recording's force.
     settings : CorrectionSettings
     log : logging.Logger, optional
+    report : pandas.DataFrame, optional
+        The projection's span report: the spans it rejected between and around measured ones stay
+        in the model, unmeasured (:func:`fill_unmeasured`).
 
     Returns
     -------
@@ -320,12 +414,20 @@ def correct_spans(spans: pd.DataFrame, recording: pd.DataFrame, catenary: Catena
     """
     n_max = max(catenary.span_type(t).n_droppers for t in spans["span_type"].unique()) if len(spans) else 0
     rows_out, history_out = [], []
+    spans = spans.copy()
+    for column, default in (("run_id", "run"), ("direction", 1), ("speed_kmh", np.nan), ("force_n", np.nan)):
+        if column not in spans:
+            spans[column] = default
     for rows in consecutive_runs(spans):
-        speed, force = measuring_conditions(recording, rows, settings)
-        result = correct_run(rows, catenary, pantograph.with_static_force(force), speed, settings, log=log)
+        if report is not None:
+            rows = fill_unmeasured(rows, report, catenary)
+        speed, force, direction, profile = measuring_conditions(rows, settings)
+        result = correct_run(rows, catenary, pantograph.with_static_force(force), speed, settings, log=log,
+                             direction=direction, speed_profile=profile)
         converged = np.isfinite(result.gap_norm_m) & (result.gap_norm_m < settings.tolerance_m)
         passes = _passes_to_converge(result.history, settings, len(rows))
-        for k in range(len(rows)):
+        measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
+        for k in np.flatnonzero(measured):
             reason = result.failure or ("" if converged[k] else
                                         f"gap {result.gap_norm_m[k] * 1e3:.2f} mm after {result.iterations} passes")
             row = {c: rows.loc[k, c] for c in CORRECTED_BASE_COLUMNS}
@@ -336,19 +438,25 @@ def correct_spans(spans: pd.DataFrame, recording: pd.DataFrame, catenary: Catena
                        reason=reason)
             rows_out.append(row)
         for it, (mode, norms) in enumerate(result.history, start=1):
-            for k in range(len(rows)):
+            for k in np.flatnonzero(measured):
                 history_out.append({"section_id": rows.loc[k, "section_id"], "span_id": rows.loc[k, "span_id"],
-                                    "iteration": it, "mode": mode, "gap_norm_m": norms[k]})
+                                    "run_id": rows.loc[k, "run_id"], "iteration": it, "mode": mode,
+                                    "gap_norm_m": norms[k]})
         if log is not None:
-            log.info("section %s, spans %s…%s: %d %s passes (%d in all) at %.1f km/h and %.1f N, gap max %.3f mm%s",
-                     rows["section_id"].iloc[0], rows["span_id"].iloc[0], rows["span_id"].iloc[-1],
-                     result.iterations, settings.mode, len(result.history), speed * 3.6, force,
+            log.info("section %s, run %s (%s), spans %s…%s: %d %s passes (%d in all) at %.1f km/h%s and %.1f N, "
+                     "gap max %.3f mm%s", rows["section_id"].iloc[0], rows["run_id"].iloc[0],
+                     "towards increasing chainage" if direction > 0 else "towards decreasing chainage",
+                     rows["span_id"].iloc[0], rows["span_id"].iloc[-1]
+                     + (f" ({int((~measured).sum())} unmeasured kept in the model)" if (~measured).any() else ""),
+                     result.iterations, settings.mode, len(result.history), speed * 3.6,
+                     " (median; a profile through the spans)" if profile is not None else "", force,
                      _nanmax(result.gap_norm_m) * 1e3,
                      f"; FAILED: {result.failure}" if result.failure else "")
     columns = CORRECTED_BASE_COLUMNS + [f"w{i + 1}_m" for i in range(n_max)] + [
         "iterations", "gap_norm_m", "converged", "slack_droppers", "reason"]
     corrected = pd.DataFrame(rows_out, columns=columns)
-    convergence = pd.DataFrame(history_out, columns=["section_id", "span_id", "iteration", "mode", "gap_norm_m"])
+    convergence = pd.DataFrame(history_out, columns=["section_id", "span_id", "run_id", "iteration", "mode",
+                                                     "gap_norm_m"])
     return corrected, convergence
 
 
@@ -357,8 +465,9 @@ def corrected_schema(columns) -> "pa.Schema":
     ``slack_droppers`` int64, ``converged`` bool, every other column float64 (lengths in [m])."""
     import pyarrow as pa
 
-    kinds = {"span_id": pa.string(), "section_id": pa.string(), "span_type": pa.string(), "reason": pa.string(),
-             "iterations": pa.int64(), "slack_droppers": pa.int64(), "converged": pa.bool_()}
+    kinds = {"span_id": pa.string(), "run_id": pa.string(), "section_id": pa.string(), "span_type": pa.string(),
+             "reason": pa.string(), "direction": pa.int64(), "iterations": pa.int64(), "slack_droppers": pa.int64(),
+             "converged": pa.bool_()}
     return pa.schema([pa.field(c, kinds.get(c, pa.float64())) for c in columns])
 
 

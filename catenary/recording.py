@@ -5,12 +5,23 @@ A **recording** is the contact-wire height measured along the line by a recordin
 ========== ======== =====================================================================
 column     required meaning
 ========== ======== =====================================================================
-chainage_m yes      position along the line [m], finite, strictly increasing
+chainage_m yes      position along the line [m] as the car's odometer gives it, finite;
+                    within a run strictly increasing or strictly decreasing (rows in time
+                    order: the direction of travel)
 height_m   yes      CW height above rail at the pantograph [m]; empty / NaN = drop-out
 speed_kmh  no       train speed [km/h]
 force_n    no       contact force of the measuring pantograph [N]
-run_id     no       text label of the measuring run
+stagger_m  no       lateral position of the contact point [m] (the stagger; it reverses at
+                    every steady arm, which the registration uses to find the supports)
+run_id     no       text label of the measuring run; the rows of a run are consecutive.
+                    Absent: the whole file is one run, named after the file
+direction  no       +1 (travel towards increasing chainage) or -1, one value per run;
+                    absent: read from the order of the rows
 ========== ======== =====================================================================
+
+A recording may hold **several runs** (a ``run_id`` column, or several files read by
+:func:`read_recordings`): the same line measured again, on the other track or in the other
+direction. Each run is checked and registered on its own; run ids are unique across files.
 
 A **masts** file lists the supports:
 
@@ -29,10 +40,10 @@ cw_height_m no       design CW height at the steady arm [m]
 Both may be CSV (``.csv``) or Parquet (``.parquet``/``.pq``). Checks (each failure is an
 :class:`~catenary.errors.InputError` naming the file, the row and/or the column, and what was
 expected): the file exists, is readable and non-empty; required columns are present; numeric
-columns hold numbers; chainages are finite and strictly increasing (recording) or increasing
-within each section (masts); heights are in metres (a median above 20 m is taken for
-millimetres) and inside [0, 20] m; the median sampling step is at most 0.5 m; mast ids are
-unique; each section has at least two masts (one span).
+columns hold numbers; chainages are finite and, within a run, strictly monotonic (recording) or
+increasing within each section (masts); heights are in metres (a median above 20 m is taken for
+millimetres) and inside [0, 20] m; staggers within ±1 m; the median sampling step of each run
+is at most 0.5 m; mast ids are unique; each section has at least two masts (one span).
 
 Rows are numbered from 1 in the order of the file, the header not counted; for a CSV file the
 line number (header = line 1) is given too. Columns the format does not know are ignored and
@@ -57,7 +68,7 @@ from .errors import InputError
 from .parquet import read_table, write_table
 
 RECORDING_REQUIRED = ("chainage_m", "height_m")
-RECORDING_OPTIONAL = ("speed_kmh", "force_n", "run_id")
+RECORDING_OPTIONAL = ("speed_kmh", "force_n", "stagger_m", "run_id", "direction")
 MASTS_REQUIRED = ("mast_id", "chainage_m", "section_id")
 MASTS_OPTIONAL = ("span_type", "cw_height_m")
 
@@ -65,16 +76,21 @@ MAX_SAMPLING_STEP_M = 0.5
 """Largest median sampling step of a recording [m]."""
 HEIGHT_RANGE_M = (0.0, 20.0)
 """Plausible CW heights above rail [m]; a median above the upper bound means millimetres."""
+STAGGER_LIMIT_M = 1.0
+"""Largest plausible |stagger| [m] (a real stagger is 0.2–0.4 m); beyond it: millimetres."""
 
 RECORDING_SCHEMA = pa.schema([
     pa.field("chainage_m", pa.float64(), nullable=False),
     pa.field("height_m", pa.float64()),
     pa.field("speed_kmh", pa.float64()),
     pa.field("force_n", pa.float64()),
-    pa.field("run_id", pa.string()),
+    pa.field("stagger_m", pa.float64()),
+    pa.field("run_id", pa.string(), nullable=False),
+    pa.field("direction", pa.int64(), nullable=False),
 ])
-"""Arrow schema of ``results/ingest/recording.parquet`` (optional columns null when absent;
-a null ``height_m`` is a drop-out)."""
+"""Arrow schema of ``results/ingest/recording.parquet``: rows in the file's order (time order
+within a run), every row with its ``run_id`` and ``direction``; optional columns null when
+absent; a null ``height_m`` is a drop-out."""
 
 MASTS_SCHEMA = pa.schema([
     pa.field("mast_id", pa.string(), nullable=False),
@@ -334,8 +350,69 @@ def _ignored(df: pd.DataFrame, known: tuple[str, ...]) -> list[str]:
 # validation
 # --------------------------------------------------------------------------------------------
 
+def default_run_id(source: str) -> str:
+    """The run id of a file without a ``run_id`` column: the file's name without its suffix."""
+    name = Path(str(source)).name
+    return Path(name).stem or "run"
+
+
+def _run_blocks(run_id: pd.Series, src: str) -> list[tuple[str, int, int]]:
+    """(run id, first row, end row) of each run; a run's rows must be consecutive."""
+    ids = run_id.to_numpy(dtype=object)
+    starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
+    ends = np.r_[starts[1:], ids.size]
+    seen: dict[str, int] = {}
+    blocks = []
+    for a, b in zip(starts, ends):
+        name = str(ids[a])
+        if name in seen:
+            raise InputError(f"{src}: {row_label(int(a), src)}, column 'run_id': run {name!r} appears again after "
+                             f"other runs (it started at {row_label(seen[name], src)}); expected the rows of a run "
+                             "consecutive, in time order")
+        seen[name] = int(a)
+        blocks.append((name, int(a), int(b)))
+    return blocks
+
+
+def _run_direction(chainage: np.ndarray, given: np.ndarray | None, name: str, first: int, src: str,
+                   several: bool) -> int:
+    """Direction of travel of one run (rows ``first`` … of ``src``) from its chainage order and
+    the optional ``direction`` column; InputError where the chainage is not strictly monotonic."""
+    step = np.diff(chainage)
+    if step.size == 0:
+        order = 1
+    else:
+        order = 1 if step[0] > 0 else -1
+        bad = np.flatnonzero(step * order <= 0)
+        if bad.size or step[0] == 0:
+            i = first + (int(bad[0]) + 1 if bad.size else 1)
+            k = i - first
+            word = "increasing" if order > 0 else "decreasing"
+            comparison = "not greater than" if order > 0 else "not less than"
+            hint = ("; a file holding several runs needs a run_id column (or one file per run)"
+                    if not several else "")
+            raise InputError(
+                f"{src}: {row_label(i, src)}, column 'chainage_m': {chainage[k]:.6g} m is {comparison} the previous "
+                f"row's {chainage[k - 1]:.6g} m in run {name!r}, whose chainage is {word} from "
+                f"{row_label(first, src)}; expected strictly {word} chainage within a run (rows in time order, "
+                f"without duplicates){hint}")
+    if given is None:
+        return order
+    values = np.unique(given)
+    if values.size != 1 or values[0] not in (-1.0, 1.0):
+        raise InputError(f"{src}: column 'direction' holds {', '.join(f'{v:g}' for v in values[:5])} in run "
+                         f"{name!r} (from {row_label(first, src)}); expected +1 (towards increasing chainage) or "
+                         "-1, one value per run")
+    direction = int(values[0])
+    if step.size and order < 0 < direction:
+        raise InputError(f"{src}: column 'direction': run {name!r} (from {row_label(first, src)}) is declared +1 "
+                         "(towards increasing chainage) but its rows run towards decreasing chainage; expected "
+                         "the rows in time order, or sorted by increasing chainage with the direction given")
+    return direction
+
+
 def validate_recording(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
-    """Check a recording table and return it with canonical columns and dtypes.
+    """Check a recording table (one run or several) and return it with canonical columns.
 
     Idempotent: a validated recording passes again unchanged.
 
@@ -349,7 +426,9 @@ def validate_recording(df: pd.DataFrame, source: str | None = None) -> pd.DataFr
     Returns
     -------
     pandas.DataFrame
-        Columns of :data:`RECORDING_SCHEMA`, rows in the original order, RangeIndex.
+        Columns of :data:`RECORDING_SCHEMA`, rows in the original order, RangeIndex; every row
+        carries its ``run_id`` (the file's name when the file has none) and the run's
+        ``direction`` (+1 towards increasing chainage, -1 towards decreasing).
 
     Raises
     ------
@@ -358,42 +437,116 @@ def validate_recording(df: pd.DataFrame, source: str | None = None) -> pd.DataFr
     """
     src = _source(df, source, "recording")
     _check_table(df, src, RECORDING_REQUIRED, RECORDING_OPTIONAL, "a recording, one row per sample")
+    n = len(df)
     chainage = _numeric(df, "chainage_m", src, "chainage along the line [m]", allow_missing=False)
-    if chainage.size >= 2:
-        step = np.diff(chainage)
-        bad = np.flatnonzero(step <= 0)
-        if bad.size:
-            i = int(bad[0]) + 1
-            runs = df["run_id"].dropna().astype(str).unique() if "run_id" in df.columns else ()
-            if len(runs) > 1:
-                raise InputError(
-                    f"{src}: column 'run_id' holds {len(runs)} measuring runs ({', '.join(map(repr, runs[:5]))}"
-                    f"{', …' if len(runs) > 5 else ''}) and the chainage restarts at {row_label(i, src)}; "
-                    "expected one run per recording file: split the file by run_id and process each run "
-                    "as its own recording")
-            raise InputError(
-                f"{src}: {row_label(i, src)}, column 'chainage_m': {chainage[i]:.6g} m is not greater than "
-                f"the previous row's {chainage[i - 1]:.6g} m; expected strictly increasing chainage "
-                "(sorted, without duplicates)")
-        median_step = float(np.median(step))
-        if median_step > MAX_SAMPLING_STEP_M:
-            raise InputError(f"{src}: column 'chainage_m': median sampling step {median_step:.3g} m; expected "
-                             f"at most {MAX_SAMPLING_STEP_M:g} m between samples")
+    if "run_id" in df.columns:
+        run_id = _text(df, "run_id", src, "a run label", required=False)
+        if run_id.isna().all():
+            run_id = pd.Series([default_run_id(src)] * n, dtype="str")
+        elif run_id.isna().any():
+            i = int(np.flatnonzero(run_id.isna().to_numpy())[0])
+            raise InputError(f"{src}: {row_label(i, src)}, column 'run_id': missing value; expected a run label on "
+                             "every row (or no run_id column: the file is then one run)")
+    else:
+        run_id = pd.Series([default_run_id(src)] * n, dtype="str")
+    given = (_numeric(df, "direction", src, "+1 or -1", allow_missing=False) if "direction" in df.columns
+             else None)
+    blocks = _run_blocks(run_id, src)
+    direction = np.empty(n, dtype=np.int64)
+    for name, a, b in blocks:
+        direction[a:b] = _run_direction(chainage[a:b], None if given is None else given[a:b], name, a, src,
+                                        len(blocks) > 1)
+        if b - a >= 2:
+            median_step = float(np.median(np.abs(np.diff(chainage[a:b]))))
+            if median_step > MAX_SAMPLING_STEP_M:
+                raise InputError(f"{src}: column 'chainage_m': median sampling step {median_step:.3g} m in run "
+                                 f"{name!r}; expected at most {MAX_SAMPLING_STEP_M:g} m between samples")
     height = _numeric(df, "height_m", src, "CW height above rail [m], empty for a drop-out", allow_missing=True)
     if not np.isfinite(height).any():
         raise InputError(f"{src}: column 'height_m' holds no value (all drop-outs); expected CW heights "
                          "above rail [m]")
     _check_heights(height, "height_m", src)
-    n = len(df)
     out = pd.DataFrame({"chainage_m": chainage, "height_m": height})
-    for column, expected in (("speed_kmh", "train speed [km/h]"), ("force_n", "contact force [N]")):
+    for column, expected in (("speed_kmh", "train speed [km/h]"), ("force_n", "contact force [N]"),
+                             ("stagger_m", "lateral position of the contact point [m]")):
         out[column] = (_numeric(df, column, src, expected, allow_missing=True) if column in df.columns
                        else np.full(n, np.nan))
-    out["run_id"] = (_text(df, "run_id", src, "a run label", required=False) if "run_id" in df.columns
-                     else pd.Series([None] * n, dtype="str"))
+    stagger = out["stagger_m"].to_numpy()
+    bad = np.flatnonzero(np.abs(np.nan_to_num(stagger)) > STAGGER_LIMIT_M)
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f"{src}: {row_label(i, src)}, column 'stagger_m': {stagger[i]:g} m; expected the lateral "
+                         f"position of the contact point in metres, within ±{STAGGER_LIMIT_M:g} m (millimetres?)")
+    out["run_id"] = run_id.to_numpy(dtype=object)
+    out["run_id"] = out["run_id"].astype("str")
+    out["direction"] = direction
     out.attrs["source"] = src
     out.attrs["ignored_columns"] = _ignored(df, RECORDING_REQUIRED + RECORDING_OPTIONAL)
     return out
+
+
+def read_recordings(paths) -> pd.DataFrame:
+    """Read and check one or several recording files into one table of runs.
+
+    Parameters
+    ----------
+    paths : str, pathlib.Path or list of them
+        Each file holds one run or several (``run_id``); see the module docs.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The files' validated rows one after the other (:data:`RECORDING_SCHEMA`), with
+        ``attrs["runs"]`` = {run id: source file}.
+
+    Raises
+    ------
+    InputError
+        A file's own problem (see :func:`read_recording`), or the same run id in two files.
+    """
+    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    if not paths:
+        raise InputError("recording: no file given; expected one recording file or a list of them")
+    parts, owner, ignored = [], {}, []
+    for path in paths:
+        part = read_recording(path)
+        for run in part["run_id"].unique():
+            if run in owner:
+                raise InputError(f"{path}: run {run!r} is also in {owner[run]}; expected each run id once across "
+                                 "the recording files (name the runs in a run_id column, or give the files "
+                                 "different names)")
+            owner[str(run)] = str(path)
+        ignored += [c for c in part.attrs.get("ignored_columns", []) if c not in ignored]
+        parts.append(part)
+    out = pd.concat(parts, ignore_index=True) if len(parts) > 1 else parts[0]
+    out.attrs["source"] = ", ".join(str(p) for p in paths)
+    out.attrs["runs"] = owner
+    out.attrs["ignored_columns"] = ignored
+    return out
+
+
+def runs_table(recording: pd.DataFrame) -> pd.DataFrame:
+    """One row per run of a validated recording: ``run_id``, ``direction``, ``n_samples``,
+    ``start_chainage_m`` and ``end_chainage_m`` (lowest and highest), ``median_speed_kmh`` (NaN
+    without speeds), ``has_stagger``; runs in order of appearance."""
+    rows = []
+    for run, part in recording.groupby("run_id", sort=False):
+        x = part["chainage_m"].to_numpy(dtype=float)
+        rows.append({"run_id": str(run), "direction": int(part["direction"].iloc[0]), "n_samples": len(part),
+                     "start_chainage_m": float(x.min()), "end_chainage_m": float(x.max()),
+                     "median_speed_kmh": float(part["speed_kmh"].median()) if part["speed_kmh"].notna().any()
+                     else float("nan"),
+                     "has_stagger": bool(part["stagger_m"].notna().any())})
+    return pd.DataFrame(rows, columns=["run_id", "direction", "n_samples", "start_chainage_m", "end_chainage_m",
+                                       "median_speed_kmh", "has_stagger"])
+
+
+def run_samples(recording: pd.DataFrame, run_id: str) -> pd.DataFrame:
+    """The samples of one run sorted by increasing chainage (whatever its direction), RangeIndex."""
+    part = recording[recording["run_id"] == run_id]
+    if part.empty:
+        raise KeyError(f"run {run_id!r} not in the recording")
+    return part.sort_values("chainage_m", kind="stable").reset_index(drop=True)
 
 
 def validate_masts(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
@@ -488,6 +641,12 @@ def write_recording(df: pd.DataFrame, path: str | Path, *, config_hash: str) -> 
     write_table(validate_recording(df), path, RECORDING_SCHEMA, config_hash=config_hash, kind="recording")
 
 
-def write_masts(df: pd.DataFrame, path: str | Path, *, config_hash: str) -> None:
-    """Write validated masts to ``path`` (``results/ingest/masts.parquet``)."""
-    write_table(validate_masts(df), path, MASTS_SCHEMA, config_hash=config_hash, kind="masts")
+def write_masts(df: pd.DataFrame | None, path: str | Path, *, config_hash: str) -> None:
+    """Write validated masts to ``path`` (``results/ingest/masts.parquet``); ``None``: no mast
+    table was given (an empty table: the registration finds the masts from the trace)."""
+    if df is None:
+        df = pd.DataFrame({f.name: pd.Series(dtype="str" if f.type == pa.string() else "float64")
+                           for f in MASTS_SCHEMA})
+    else:
+        df = validate_masts(df)
+    write_table(df, path, MASTS_SCHEMA, config_hash=config_hash, kind="masts")

@@ -25,6 +25,7 @@ from .config import Catenary
 from .dropper_table import nominal_dropper_lengths
 from .effects import EFFECTS, SpanParameters, plant
 from .errors import ConfigError
+from .recording_car import MastTableErrors, Odometer, RunSpec, StaggerSpec, Variation
 from .schema import check
 
 
@@ -60,7 +61,10 @@ class Measurement:
     Attributes: pantograph (name in the pantographs file), speed_kmh [km/h], force_n
     (declared mean force [N]), sampling_step_m [m], noise_std_m [m], quantisation_m [m],
     dropout_rate_per_km, dropout_length_m [m], spike_rate_per_km, spike_height_m [m],
-    mode ("dynamic" or "quasi_static"), time_step_s [s].
+    mode ("dynamic" or "quasi_static"), time_step_s [s], runs (the car's runs,
+    :class:`~catenary.recording_car.RunSpec`; default one run towards increasing chainage with
+    an exact odometer), stagger (:class:`~catenary.recording_car.StaggerSpec` or None: the
+    stagger is not recorded).
     """
 
     pantograph: str
@@ -75,6 +79,8 @@ class Measurement:
     spike_height_m: float
     mode: str
     time_step_s: float
+    runs: tuple[RunSpec, ...] = (RunSpec(),)
+    stagger: StaggerSpec | None = None
 
 
 @dataclass(frozen=True)
@@ -93,11 +99,34 @@ class TruthSpec:
     hidden_effects: list[tuple[str, dict[str, float]]]
     measurement: Measurement
     raw: dict = field(repr=False, default_factory=dict)
+    mast_table: MastTableErrors | None = None
 
 
 def _law(raw: Mapping[str, Any]) -> Law:
     """A law from its schema-checked mapping."""
     return Law(raw["law"], float(raw["mean"]), float(raw.get("std", 0.0)))
+
+
+def _variation(raw: Mapping[str, Any] | None) -> Variation:
+    return Variation() if raw is None else Variation(float(raw["std"]), float(raw["length_m"]))
+
+
+def _runs(raw: list | None, where: str) -> tuple[RunSpec, ...]:
+    """The car's runs from their schema-checked list (default: one run, exact odometer)."""
+    if not raw:
+        return (RunSpec(),)
+    runs = []
+    for r in raw:
+        o = r.get("odometer") or {}
+        runs.append(RunSpec(run_id=str(r["run_id"]), direction=int(r.get("direction", 1)), seed=int(r["seed"]),
+                            odometer=Odometer(float(o.get("offset_m", 0.0)), float(o.get("scale", 1.0)),
+                                              _variation(o.get("drift"))),
+                            speed_variation=_variation(r.get("speed_variation")),
+                            force_variation=_variation(r.get("force_variation"))))
+    ids = [r.run_id for r in runs]
+    if len(set(ids)) != len(ids):
+        raise ConfigError(f"{where}.measurement.runs: run ids must be unique, got {ids}")
+    return tuple(runs)
 
 
 def truth_from_dict(raw: Mapping[str, Any], catenary: Catenary, where: str = "campaign") -> TruthSpec:
@@ -163,12 +192,19 @@ def truth_from_dict(raw: Mapping[str, Any], catenary: Catenary, where: str = "ca
         sampling_step_m=float(m["sampling_step_m"]), noise_std_m=float(m["noise_std_m"]),
         quantisation_m=float(m["quantisation_m"]), dropout_rate_per_km=float(m["dropout_rate_per_km"]),
         dropout_length_m=float(m["dropout_length_m"]), spike_rate_per_km=float(m["spike_rate_per_km"]),
-        spike_height_m=float(m["spike_height_m"]), mode=str(m["mode"]), time_step_s=float(m["time_step_s"]))
+        spike_height_m=float(m["spike_height_m"]), mode=str(m["mode"]), time_step_s=float(m["time_step_s"]),
+        runs=_runs(m.get("runs"), where),
+        stagger=StaggerSpec(**{k: float(v) for k, v in m["stagger"].items()}) if m.get("stagger") else None)
+    table = raw.get("mast_table")
+    mast_table = (MastTableErrors(float(table.get("position_error_m", 0.0)), int(table.get("missing", 0)),
+                                  int(table.get("extra", 0)), int(table.get("seed", raw["seed"])))
+                  if table else None)
     return TruthSpec(
         seed=int(raw["seed"]), sections=sections, section_gap_m=float(line.get("section_gap_m", 50.0)),
         span_length_jitter_m=float(line.get("span_length_jitter_m", 0.0)), cw_height=_law(line["cw_height_m"]),
         dropper_laws=dropper_laws, system_height=system_height, contact_tension=_law(raw["contact_tension_n"]),
-        messenger_tension=messenger, hidden_effects=effects, measurement=measurement, raw=dict(raw))
+        messenger_tension=messenger, hidden_effects=effects, measurement=measurement, raw=dict(raw),
+        mast_table=mast_table)
 
 
 def load_truth(path: str | Path, catenary: Catenary) -> TruthSpec:

@@ -2,7 +2,7 @@
 
 import pandas as pd
 
-from catenary.campaign import masts_table, truth_schema
+from catenary.campaign import campaign_masts, gather_recording, truth_schema
 from catenary.config import load_catenary
 from catenary.logs import rule_logger
 from catenary.parquet import config_hash, read_table, write_table
@@ -13,11 +13,17 @@ log = rule_logger("campaign", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
 spec = load_truth(snakemake.input.campaign, catenary)
 digest = config_hash(spec.raw)
-recording = pd.concat([read_table(p) for p in snakemake.input.recordings], ignore_index=True)
+recording = gather_recording([read_table(p) for p in snakemake.input.recordings], spec)
 truth = pd.concat([read_table(p) for p in snakemake.input.truths], ignore_index=True)
-recording = recording.sort_values("chainage_m", kind="stable").reset_index(drop=True)
+truth_runs = pd.concat([read_table(p) for p in snakemake.input.truth_runs], ignore_index=True)
 write_table(recording, snakemake.output.recording, RECORDING_SCHEMA, config_hash=digest, kind="recording")
-recording.to_csv(snakemake.output.recording_csv, index=False, float_format="%.4f")
-masts_table(draw_line(spec, catenary)).to_csv(snakemake.output.masts, index=False, float_format="%.4f")
+columns = [c for c in recording.columns if c != "stagger_m" or recording["stagger_m"].notna().any()]
+recording[columns].to_csv(snakemake.output.recording_csv, index=False, float_format="%.4f")
+masts, masts_truth = campaign_masts(draw_line(spec, catenary), spec)
+masts.to_csv(snakemake.output.masts, index=False, float_format="%.4f")
+masts_truth.to_csv(snakemake.output.masts_truth, index=False, float_format="%.4f")
 write_table(truth, snakemake.output.truth, truth_schema(truth.columns), config_hash=digest, kind="truth")
-log.info("campaign: %d samples, %d spans", len(recording), len(truth))
+write_table(truth_runs, snakemake.output.truth_runs, truth_schema(truth_runs.columns), config_hash=digest,
+            kind="truth_runs")
+log.info("campaign: %d samples in %d run(s), %d spans; mast table: %s", len(recording),
+         recording["run_id"].nunique(), len(truth), masts_truth["status"].value_counts().to_dict())

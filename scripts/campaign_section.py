@@ -16,12 +16,15 @@ spec = load_truth(snakemake.input.campaign, catenary)
 line = draw_line(spec, catenary)
 k = [s.section_id for s in spec.sections].index(snakemake.wildcards.section)
 pantograph = load_pantographs(snakemake.input.pantographs)[spec.measurement.pantograph]
-log.info("section %s (%d of %d; Snakemake's 'steps done' counts the sections): measuring pass over %d %s spans",
-         snakemake.wildcards.section, k + 1, len(spec.sections), spec.sections[k].n_spans, spec.sections[k].span_type)
+log.info("section %s (%d of %d; Snakemake's 'steps done' counts the sections): measuring pass over %d %s spans, "
+         "%d run(s)", snakemake.wildcards.section, k + 1, len(spec.sections), spec.sections[k].n_spans,
+         spec.sections[k].span_type, len(spec.measurement.runs))
 start = time.perf_counter()
-recording, truth = simulate_section(line, k, catenary, pantograph, spec.measurement, spec.seed)
+recording, truth, truth_runs = simulate_section(line, k, catenary, pantograph, spec.measurement, spec.seed)
 digest = config_hash(spec.raw)
 write_table(recording, snakemake.output.recording, RECORDING_SCHEMA, config_hash=digest, kind="recording")
 write_table(truth, snakemake.output.truth, truth_schema(truth.columns), config_hash=digest, kind="truth")
+write_table(truth_runs, snakemake.output.truth_runs, truth_schema(truth_runs.columns), config_hash=digest,
+            kind="truth_runs")
 log.info("section %s: %d samples (%d missing), %d spans, simulated in %.0f s", snakemake.wildcards.section,
          len(recording), int(recording["height_m"].isna().sum()), len(truth), time.perf_counter() - start)

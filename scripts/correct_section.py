@@ -20,10 +20,12 @@ for span_type, path in zip(snakemake.params.span_types, snakemake.input.spans):
     table = read_table(path)
     spans.append(table[table["section_id"] == section_id].assign(span_type=span_type))
 spans = pd.concat(spans, ignore_index=True)
-recording = read_table(snakemake.input.recording)
 log.info("section %s: %d spans, %s pass, tolerance %.2f mm", section_id, len(spans), settings.mode,
          settings.tolerance_m * 1e3)
-corrected, convergence = correct_spans(spans, recording, catenary, pantograph, settings, log=log)
+report = pd.read_csv(snakemake.input.report, dtype={"span_id": str, "run_id": str, "section_id": str,
+                                                    "span_type": str}, keep_default_na=False,
+                     na_values={c: [""] for c in ("start_chainage_m", "end_chainage_m", "length_m")})
+corrected, convergence = correct_spans(spans, catenary, pantograph, settings, log=log, report=report)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
             config_hash=settings_hash(snakemake.config), kind="corrected_section")
 convergence.to_csv(snakemake.output.convergence, index=False)

@@ -2,7 +2,7 @@
 
 import pandas as pd
 
-from catenary.campaign import correction_round_trip
+from catenary.truth_checks import correction_round_trip
 from catenary.logs import rule_logger
 from catenary.parquet import read_table
 

@@ -35,8 +35,7 @@ log.info("settings: %s", settings.as_mapping())
 data = read_corrected(snakemake.input.corrected, span_type)
 log.info("%s: %d converged spans used, %d left out", span_type.name, data.w_m.shape[0], len(data.left_out))
 pantograph = load_pantographs(snakemake.input.pantographs)[correction.pantograph]
-measuring = measuring_pass_of(snakemake.input.corrected, snakemake.input.recording, span_type, catenary, pantograph,
-                              correction)
+measuring = measuring_pass_of(snakemake.input.corrected, span_type, catenary, pantograph, correction)
 log.info("measuring pass: %.1f km/h, declared force %.1f N; ∂W/∂F at the droppers %s mm/N", 3.6 * measuring.speed_m_s,
          measuring.force_n, " ".join(f"{1e3 * g:.3f}" for g in measuring.influence_m_n))
 run = diagnose(span_type, catenary, data.w_m, identification, settings, mast_pairs=data.mast_pairs,

@@ -8,18 +8,21 @@ from catenary.identification.report import read_corrected, run_identification
 from catenary.identification.settings import IdentificationSettings
 from catenary.logs import rule_logger
 from catenary.parquet import settings_hash
+from catenary.repeatability import read_noise
 
 log = rule_logger("identify", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
 span_type = catenary.span_type(snakemake.wildcards.span_type)
 settings = IdentificationSettings.from_mapping(snakemake.params.identification)
 log.info("settings: %s", settings.as_dict())
-data = read_corrected(snakemake.input.corrected, span_type)
+repeatability_m2, flagged = read_noise(snakemake.input.noise)
+data = read_corrected(snakemake.input.corrected, span_type, flagged)
 log.info("%s: %d converged spans used, %d left out", span_type.name, data.w_m.shape[0], len(data.left_out))
 for span_id, why in data.left_out:
     log.info("left out %s: %s", span_id, why)
 run = run_identification(span_type, catenary, data.w_m, settings, left_out=data.left_out,
-                         mast_pairs=data.mast_pairs, log=log)
+                         mast_pairs=data.mast_pairs, log=log, n_runs=data.n_runs,
+                         noise_covariance_m2=settings.noise_covariance_m2(span_type.n_droppers, repeatability_m2))
 out = snakemake.output
 write_identification(run, IdentificationPaths(s_opt=Path(out.s_opt), trace=Path(out.trace),
                                               estimators=Path(out.estimators), normality=Path(out.normality),

@@ -1,26 +1,45 @@
-"""Rule project: cut the recording into spans and project W at the droppers."""
+"""Rule project: cut every run into spans along its registered masts and project W at the droppers."""
 
 from pathlib import Path
 
+import pandas as pd
+
 from catenary.config import load_catenary
+from catenary.correction import CorrectionSettings
 from catenary.errors import InputError
 from catenary.logs import rule_logger
+from catenary.pantograph import load_pantographs
 from catenary.parquet import read_table, settings_hash
 from catenary.projection import ProjectionSettings, project, write_projection
+from catenary.recording import read_masts, runs_table
+from catenary.registration import RegistrationSettings
+from catenary.registration.lag import lag_function
+from catenary.registration.outputs import read_registration
 
 log = rule_logger("project", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
-result = project(read_table(snakemake.input.recording), read_table(snakemake.input.masts), catenary,
-                 ProjectionSettings.from_mapping(snakemake.params.projection))
-log.info("spans: %d used, %d rejected", result.n_used, result.n_rejected)
+correction = CorrectionSettings.from_mapping(snakemake.params.correction)
+pantograph = load_pantographs(snakemake.input.pantographs)[correction.pantograph].with_static_force(correction.force_n)
+lag = lag_function(catenary, pantograph, mode=correction.mode, time_step_s=correction.time_step_s,
+                   default_speed_kmh=correction.speed_kmh)
+recording = read_table(snakemake.input.recording)
+masts = read_masts(snakemake.input.table)
+registration = None
+if RegistrationSettings.from_mapping(snakemake.params.registration).enabled:
+    directions = dict(zip(*runs_table(recording)[["run_id", "direction"]].T.to_numpy()))
+    registration = read_registration(snakemake.input.registered_masts, snakemake.input.sections, directions)
+result = project(recording, masts, catenary, ProjectionSettings.from_mapping(snakemake.params.projection),
+                 registration, lag)
+log.info("spans: %d used, %d rejected (over %d run(s))", result.n_used, result.n_rejected,
+         result.report["run_id"].nunique())
 for row in result.report[result.report["status"] != "used"].itertuples():
-    log.info("rejected %s: %s", row.span_id, row.reason)
+    log.info("rejected %s (run %s): %s", row.span_id, row.run_id, row.reason)
 if result.n_used == 0:
-    reasons = "; ".join(f"{n} × {r}" for r, n in result.report["reason"].value_counts().items())
+    reasons = "; ".join(f"{n} × {r}" for r, n in result.report["reason"].value_counts().head(5).items())
+    files = snakemake.config.get("recording") or snakemake.input.recording
     raise InputError(
-        f"{snakemake.config.get('recording') or snakemake.input.recording} and "
-        f"{snakemake.config.get('masts') or snakemake.input.masts}: the projection kept 0 of "
-        f"{len(result.report)} span(s) ({reasons or 'no span between two masts'}); expected a recording "
-        "that covers the masts' chainages (same origin, metres)")
+        f"{', '.join(files) if isinstance(files, list) else files} and {snakemake.config.get('masts') or 'the masts'}: "
+        f"the projection kept 0 of {len(result.report)} span(s) ({reasons or 'no span between two masts'}); "
+        "expected a recording that covers the masts' chainages (same line, metres)")
 write_projection(result, Path(snakemake.output.report).parent, config_hash=settings_hash(snakemake.config),
                  span_types=snakemake.params.span_types, catenary=catenary)

@@ -97,7 +97,7 @@ def quasi_static_section(raw, catenary, effects=()):
     spec = truth_from_dict(r, catenary)
     line = draw_line(spec, catenary)
     pantograph = load_pantographs(ROOT / "config" / "pantographs.yaml")["measuring"]
-    rec, truth = simulate_section(line, 0, catenary, pantograph, spec.measurement, spec.seed)
+    rec, truth, _ = simulate_section(line, 0, catenary, pantograph, spec.measurement, spec.seed)
     return line, spec, pantograph, rec, truth
 
 
@@ -105,7 +105,7 @@ def test_simulated_section_is_consistent_and_deterministic(raw, catenary):
     line, spec, pantograph, rec, truth = quasi_static_section(
         raw, catenary, [{"name": "measuring_force_offset", "force_n": 4.0},
                         {"name": "cw_longitudinal_offset", "mean_m": 0.1}])
-    rec2, truth2 = simulate_section(line, 0, catenary, pantograph, spec.measurement, spec.seed)
+    rec2, truth2, _ = simulate_section(line, 0, catenary, pantograph, spec.measurement, spec.seed)
     assert rec.equals(rec2) and truth.equals(truth2)
     np.testing.assert_array_equal(truth["cw_offset_m"], 0.1)  # inclined droppers
     assert truth["measuring_force_n"].iloc[0] == 40.0
@@ -151,7 +151,7 @@ def test_campaign_files_are_byte_identical_for_the_same_seed(raw, catenary, tmp_
 def test_round_trip_through_ingestion_and_projection(raw, catenary, tmp_path):
     # Noise 1 mm, quantisation 1 mm, drop-outs and ±5 cm spikes: the robust projection must
     # still give the truth's W under the measuring pass within 1 mm RMS.
-    from catenary.campaign import projection_round_trip
+    from catenary.truth_checks import projection_round_trip
     from catenary.projection import ProjectionSettings, project
     from catenary.recording import read_masts, read_recording
 

@@ -45,10 +45,6 @@ def true_line(catenary, n2, n_spans=3, seed=0):
     return section.with_dropper_lengths(lengths).with_cw_support_heights(heights)
 
 
-def recording(start_m, end_m):
-    return pd.DataFrame({"chainage_m": np.arange(start_m, end_m, 1.0), "speed_kmh": SPEED_KMH, "force_n": 36.0})
-
-
 @pytest.mark.parametrize("mode, start, tolerance_m, max_error_m, max_passes", [
     ("quasi_static", False, 2e-5, 5e-5, 3),
     ("dynamic", False, 1e-3, 1e-3, 3),        # the paper's loop
@@ -70,7 +66,7 @@ def test_correction_recovers_the_static_geometry(catenary, n2, measuring, mode, 
     spans = measured_spans(truth, measured[:d], measured[d:])
     settings = CorrectionSettings(mode=mode, time_step_s=time_step_s, tolerance_m=tolerance_m, max_iterations=4,
                                   quasi_static_start=start)
-    corrected, history = correct_spans(spans, recording(1000.0, 1200.0), catenary, measuring, settings)
+    corrected, history = correct_spans(spans, catenary, measuring, settings)
     assert corrected["converged"].all() and corrected["iterations"].max() <= max_passes
     w_true = solve_static(truth, catenary).dropper_deflection_m().reshape(3, 9)
     w = corrected[[f"w{i}_m" for i in range(1, 10)]].to_numpy()
@@ -107,7 +103,7 @@ def test_slack_dropper_in_the_truth_is_found(catenary, n2, measuring):
                               chainage_m=points).height_m
     spans = measured_spans(truth, measured[:18], measured[18:])
     settings = CorrectionSettings(mode="quasi_static", tolerance_m=2e-5)
-    corrected, _ = correct_spans(spans, recording(1000.0, 1120.0), catenary, measuring, settings)
+    corrected, _ = correct_spans(spans, catenary, measuring, settings)
     assert corrected["converged"].all()
     w = corrected[[f"w{i}_m" for i in range(1, 10)]].to_numpy()
     error = np.abs(w - static.dropper_deflection_m().reshape(2, 9)).ravel()
@@ -120,7 +116,7 @@ def test_impossible_span_is_reported_not_lost(catenary, n2, measuring):
     spans = measured_spans(truth, h_d, truth.cw_support_heights_m)
     spans.loc[1, "w5_m"] += 0.3          # a CW 30 cm above its neighbours: no dropper can hold it there
     settings = CorrectionSettings(mode="quasi_static", max_iterations=3)
-    corrected, _ = correct_spans(spans, recording(1000.0, 1120.0), catenary, measuring, settings)
+    corrected, _ = correct_spans(spans, catenary, measuring, settings)
     assert len(corrected) == 2 and corrected["converged"].tolist() == [True, False]
     assert corrected.loc[1, "slack_droppers"] >= 1 and "gap" in corrected.loc[1, "reason"]
 
@@ -150,7 +146,7 @@ def test_only_a_solver_failure_is_reported_as_a_failed_run(catenary, n2, measuri
         raise ConvergenceError("dropper/contact states did not settle in 50 iterations")
 
     monkeypatch.setattr(correction, "measuring_pass", unsettled)
-    corrected, _ = correct_spans(spans, recording(1000.0, 1120.0), catenary, measuring, settings)
+    corrected, _ = correct_spans(spans, catenary, measuring, settings)
     assert len(corrected) == 2 and not corrected["converged"].any()
     assert corrected["reason"].str.contains("a solver did not converge on this run .*did not settle").all()
 
@@ -159,4 +155,4 @@ def test_only_a_solver_failure_is_reported_as_a_failed_run(catenary, n2, measuri
 
     monkeypatch.setattr(correction, "measuring_pass", misconfigured)
     with pytest.raises(ConfigError, match="unknown pantograph"):
-        correct_spans(spans, recording(1000.0, 1120.0), catenary, measuring, settings)
+        correct_spans(spans, catenary, measuring, settings)

@@ -61,12 +61,47 @@ def test_a_missing_column_is_named_in_the_terminal_and_the_ingest_log(tmp_path, 
     _assert_clear_failure(run, tmp_path / "results" / "logs" / "ingest.log", str(path), "height_m")
 
 
-def test_two_passes_in_one_file_are_refused_naming_run_id(tmp_path, recording):
-    second = recording.copy()
+def test_runs_interleaved_in_one_file_are_refused_naming_run_id(tmp_path, recording):
+    # several runs in one file are read (a run_id column), each run's rows consecutive; a run
+    # that starts again after another is a sorting error, refused with the row
     path = tmp_path / "recording.csv"
-    pd.concat([recording.assign(run_id="A"), second.assign(run_id="B")]).to_csv(path, index=False)
+    half = len(recording) // 2
+    pd.concat([recording.iloc[:half].assign(run_id="A"), recording.assign(run_id="B"),
+               recording.iloc[half:].assign(run_id="A")]).to_csv(path, index=False)
     run = _snakemake(tmp_path, path, EXAMPLE / "masts.csv", "ingest/recording.parquet")
-    _assert_clear_failure(run, tmp_path / "results" / "logs" / "ingest.log", str(path), "run_id")
+    _assert_clear_failure(run, tmp_path / "results" / "logs" / "ingest.log", str(path), "run_id", "appears again")
+
+
+REGISTERED = "registration:\n  enabled: true\n  mast_table_std_m: 0.2\n"
+
+
+def test_a_trace_without_usable_supports_is_refused_with_its_section(tmp_path, recording):
+    # A height trace with no sag and no kinks (a flat wire under noise): the registration finds
+    # no support, refuses the section with its reason, and the projection, left with no span,
+    # stops naming that reason; the registration's log holds it too.
+    path = tmp_path / "recording.csv"
+    rng = np.random.default_rng(5)
+    flat = recording.assign(height_m=np.round(5.08 + rng.normal(0.0, 0.001, len(recording)), 3))
+    flat.to_csv(path, index=False)
+    run = _snakemake(tmp_path, path, EXAMPLE / "masts.csv", "spans_report.csv", REGISTERED)
+    _assert_clear_failure(run, tmp_path / "results" / "logs" / "project.log", "the projection kept 0 of 16",
+                          "section E01, run recording: registration failed")
+    sections = pd.read_csv(tmp_path / "results" / "registration" / "sections.csv")
+    assert list(sections["status"]) == ["refused"]
+    assert "registration failed" in (tmp_path / "results" / "logs" / "register.log").read_text()
+
+
+def test_a_mast_table_from_another_line_is_refused_with_its_section(tmp_path):
+    # The masts of another line over the same chainages: 54 m N3 spans where the trace has its
+    # supports every 58.5 m. No common offset and scale (within max_scale_error) puts half of
+    # them on the trace's supports: the section is refused, every span rejected with the reason.
+    masts = pd.DataFrame({"mast_id": [f"X{k:02d}" for k in range(18)], "chainage_m": 104250.0 + 54.0 * np.arange(18),
+                          "section_id": "X01", "span_type": ["N3"] * 17 + [""]})
+    path = tmp_path / "masts.csv"
+    masts.to_csv(path, index=False)
+    run = _snakemake(tmp_path, EXAMPLE / "recording.csv", path, "spans_report.csv", REGISTERED)
+    _assert_clear_failure(run, tmp_path / "results" / "logs" / "project.log", "the projection kept 0 of 17",
+                          "section X01, run recording: registration failed")
 
 
 def test_a_semicolon_export_with_decimal_commas_is_read_as_the_comma_file(tmp_path, recording):

@@ -11,8 +11,9 @@ import pytest
 import catenary
 from catenary.errors import InputError
 from catenary.parquet import config_hash, read_metadata, read_table, settings_hash, unit_of, write_table
-from catenary.recording import (MASTS_SCHEMA, RECORDING_SCHEMA, read_masts, read_recording, validate_masts,
-                                validate_recording, write_masts, write_recording)
+from catenary.recording import (MASTS_SCHEMA, RECORDING_SCHEMA, read_masts, read_recording, read_recordings,
+                                run_samples, runs_table, validate_masts, validate_recording, write_masts,
+                                write_recording)
 
 
 def recording_frame(n=200, step=0.1, start=100.0, height=5.08):
@@ -125,11 +126,13 @@ def test_csv_and_parquet_inputs_agree(tmp_path):
 
 
 def test_optional_columns_absent_and_extra_columns_ignored(tmp_path):
-    rec = recording_frame()[["chainage_m", "height_m"]].assign(stagger_m=0.2)
+    rec = recording_frame()[["chainage_m", "height_m"]].assign(temperature_c=20.0)
     out = read_recording(write_csv(rec, tmp_path / "r.csv"))
     assert list(out.columns) == RECORDING_SCHEMA.names
-    assert out["speed_kmh"].isna().all() and out["run_id"].isna().all()
-    assert out.attrs["ignored_columns"] == ["stagger_m"]
+    assert out["speed_kmh"].isna().all() and out["stagger_m"].isna().all()
+    # a file without run_id is one run, named after the file, in the direction of its rows
+    assert (out["run_id"] == "r").all() and (out["direction"] == 1).all()
+    assert out.attrs["ignored_columns"] == ["temperature_c"]
     masts = read_masts(write_csv(masts_frame()[["mast_id", "chainage_m", "section_id"]], tmp_path / "m.csv"))
     assert masts["span_type"].isna().all() and masts["cw_height_m"].isna().all()
 
@@ -181,18 +184,35 @@ def test_height_out_of_range_names_the_row(tmp_path):
         read_recording(write_csv(rec, tmp_path / "r.csv"))
 
 
-def test_non_increasing_chainage(tmp_path):
+def test_non_monotonic_chainage(tmp_path):
     rec = recording_frame()
     rec.loc[3, "chainage_m"] = rec.loc[2, "chainage_m"]
-    path = write_csv(rec, tmp_path / "rec.csv")
+    path = write_csv(rec.drop(columns="run_id"), tmp_path / "rec.csv")
     with pytest.raises(InputError, match=r"rec\.csv: row 4 \(line 5\), column 'chainage_m': 100\.2 m is not "
-                                         r"greater than the previous row's 100\.2 m; expected strictly increasing"):
+                                         r"greater than the previous row's 100\.2 m in run 'rec', whose chainage "
+                                         r"is increasing from row 1 \(line 2\); expected strictly increasing "
+                                         r"chainage within a run .*needs a run_id column"):
         read_recording(path)
+    # up then back down in one run: refused where it turns
     rec = recording_frame()
-    rec.to_parquet(tmp_path / "rec.parquet")
+    turned = pd.concat([rec, rec.iloc[::-1].iloc[1:]], ignore_index=True)
+    turned.to_parquet(tmp_path / "turn.parquet")
+    with pytest.raises(InputError, match=r"turn\.parquet: row 201, column 'chainage_m': .* in run 'R1'"):
+        read_recording(tmp_path / "turn.parquet")
+
+
+def test_a_run_in_decreasing_chainage_is_a_run_towards_decreasing_chainage(tmp_path):
+    rec = recording_frame()
     rec.iloc[::-1].to_parquet(tmp_path / "rev.parquet")
-    with pytest.raises(InputError, match=r"rev\.parquet: row 2, column 'chainage_m'"):
-        read_recording(tmp_path / "rev.parquet")
+    out = read_recording(tmp_path / "rev.parquet")
+    assert (out["direction"] == -1).all() and out["chainage_m"].iloc[0] > out["chainage_m"].iloc[-1]
+    # a run sorted by chainage keeps its direction from the direction column; a contradiction is refused
+    back = read_recording(write_csv(rec.assign(direction=-1), tmp_path / "sorted.csv"))
+    assert (back["direction"] == -1).all()
+    with pytest.raises(InputError, match=r"bad\.csv: column 'direction': run 'R1' .* declared \+1"):
+        read_recording(write_csv(rec.iloc[::-1].assign(direction=1), tmp_path / "bad.csv"))
+    with pytest.raises(InputError, match=r"odd\.csv: column 'direction' holds 2 in run 'R1'.*expected \+1"):
+        read_recording(write_csv(rec.assign(direction=2), tmp_path / "odd.csv"))
 
 
 def test_masts_chainage_must_increase_within_a_section(tmp_path):
@@ -228,7 +248,7 @@ def test_all_heights_missing(tmp_path):
 
 
 def test_sampling_too_coarse(tmp_path):
-    with pytest.raises(InputError, match=r"r\.csv: column 'chainage_m': median sampling step 1 m; expected at "
+    with pytest.raises(InputError, match=r"r\.csv: column 'chainage_m': median sampling step 1 m in run 'R1'; expected at "
                                          r"most 0\.5 m"):
         read_recording(write_csv(recording_frame(step=1.0), tmp_path / "r.csv"))
 
@@ -340,12 +360,37 @@ def test_one_column_header_with_other_separators_gets_a_hint(tmp_path):
         read_recording(path)
 
 
-def test_two_runs_in_one_file_are_refused_naming_run_id(tmp_path):
-    rec = pd.concat([recording_frame().assign(run_id="up"), recording_frame().assign(run_id="down")],
-                    ignore_index=True)
-    with pytest.raises(InputError, match=r"two\.csv: column 'run_id' holds 2 measuring runs \('up', 'down'\) "
-                                         r"and the chainage restarts at row 201 .*split the file by run_id"):
-        read_recording(write_csv(rec, tmp_path / "two.csv"))
+def test_several_runs_in_one_file_and_in_several_files(tmp_path):
+    up = recording_frame().assign(run_id="up")
+    down = recording_frame().iloc[::-1].assign(run_id="down", stagger_m=0.2)
+    out = read_recording(write_csv(pd.concat([up, down], ignore_index=True), tmp_path / "two.csv"))
+    runs = runs_table(out)
+    assert runs["run_id"].tolist() == ["up", "down"] and runs["direction"].tolist() == [1, -1]
+    assert runs["n_samples"].tolist() == [200, 200] and runs["has_stagger"].tolist() == [False, True]
+    np.testing.assert_array_equal(run_samples(out, "down")["chainage_m"], up["chainage_m"])   # sorted by chainage
+    # several files: one run each, named after the files; the same run id twice is refused
+    a = write_csv(up.drop(columns="run_id"), tmp_path / "monday.csv")
+    b = write_csv(down.drop(columns="run_id"), tmp_path / "tuesday.csv")
+    both = read_recordings([a, b])
+    assert runs_table(both)["run_id"].tolist() == ["monday", "tuesday"]
+    assert both.attrs["runs"] == {"monday": str(a), "tuesday": str(b)}
+    (tmp_path / "other").mkdir()
+    twin = write_csv(up.drop(columns="run_id"), tmp_path / "other" / "monday.csv")
+    with pytest.raises(InputError, match=r"other/monday\.csv: run 'monday' is also in .*monday\.csv; expected each "
+                                         r"run id once"):
+        read_recordings([a, twin])
+    # a run's rows must be together
+    split = pd.concat([up.iloc[:100], down, up.iloc[100:]], ignore_index=True)
+    with pytest.raises(InputError, match=r"split\.csv: row 301 \(line 302\), column 'run_id': run 'up' appears "
+                                         r"again after other runs"):
+        read_recording(write_csv(split, tmp_path / "split.csv"))
+
+
+def test_stagger_in_millimetres_is_refused(tmp_path):
+    rec = recording_frame().assign(stagger_m=200.0)
+    with pytest.raises(InputError, match=r"s\.csv: row 1 \(line 2\), column 'stagger_m': 200 m; expected .* "
+                                         r"within ±1 m \(millimetres\?\)"):
+        read_recording(write_csv(rec, tmp_path / "s.csv"))
 
 
 def test_a_rule_script_error_is_one_line_in_its_log_and_no_traceback(tmp_path):

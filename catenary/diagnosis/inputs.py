@@ -41,12 +41,11 @@ class MeasuringPass:
     influence_m_n: np.ndarray
 
 
-def measuring_pass_of(corrected_path, recording_path, span_type: SpanType, catenary: Catenary,
-                      pantograph: Pantograph, settings: CorrectionSettings) -> MeasuringPass:
-    """Median speed and force of the recording over the corrected spans, and the influence."""
+def measuring_pass_of(corrected_path, span_type: SpanType, catenary: Catenary, pantograph: Pantograph,
+                      settings: CorrectionSettings) -> MeasuringPass:
+    """Median speed and force of the corrected spans' measuring passes, and the influence."""
     spans = read_table(corrected_path).sort_values("start_chainage_m")
-    recording = read_table(recording_path)
-    speed, force = measuring_conditions(recording, pd.DataFrame(spans), settings)
+    speed, force, _, _ = measuring_conditions(pd.DataFrame(spans), settings)
     influence = force_influence(span_type, catenary, pantograph.with_static_force(force), speed_m_s=speed,
                                 mode=settings.mode, time_step_s=settings.time_step_s)
     return MeasuringPass(speed_m_s=speed, force_n=force, influence_m_n=influence)

@@ -239,6 +239,11 @@ class Likelihood:
         Kernel bandwidth rule (kernel estimator only).
     chunk_size : int
         Design rows mapped and evaluated at once.
+    noise_covariance_m2 : numpy.ndarray, optional
+        Covariance R of one run's W error (n × n) [m²]: the law of a measured W is that of the
+        model plus ``R / n_runs`` of its span (Gaussian estimator only). Default: none.
+    n_runs : array_like of int, shape (K,), optional
+        Runs averaged into each measured W (default 1).
     sampler : callable, optional
         Replaces the map from design rows to model W: ``sampler(z, means, sigmas, extra)``
         returns ``(W, F_min)`` for the standard normal scores ``z`` of a block of the design, or
@@ -256,7 +261,8 @@ class Likelihood:
     def __init__(self, model: FastSpanModel, design: UnitDesign, data_w_m: np.ndarray, *,
                  estimator: str = "gaussian", system_height_mode: str = "shared",
                  slack_taper_n: float = 2.0, max_slack_fraction: float = 0.5,
-                 bandwidth: str = "scott", chunk_size: int = 16384, sampler=None):
+                 bandwidth: str = "scott", chunk_size: int = 16384, sampler=None,
+                 noise_covariance_m2: np.ndarray | None = None, n_runs: np.ndarray | None = None):
         n = model.n_droppers
         expected = design_dimension(n, system_height_mode) if sampler is None else sampler.dimension
         if design.dimension != expected:
@@ -282,6 +288,17 @@ class Likelihood:
         self.chunk_size = int(chunk_size)
         self.sampler = sampler
         self._shift = data.mean(axis=0)
+        self.n_runs = np.ones(data.shape[0], dtype=int) if n_runs is None else np.asarray(n_runs, dtype=int)
+        if self.n_runs.shape != (data.shape[0],) or np.any(self.n_runs < 1):
+            raise ValueError(f"n_runs: expected {data.shape[0]} counts ≥ 1, got {self.n_runs}")
+        self.noise_covariance_m2 = None
+        if noise_covariance_m2 is not None:
+            noise = np.asarray(noise_covariance_m2, dtype=float)
+            if noise.shape != (n, n) or not np.allclose(noise, noise.T):
+                raise ValueError(f"noise_covariance_m2: expected a symmetric ({n}, {n}) matrix, got shape {noise.shape}")
+            if estimator != "gaussian":
+                raise ValueError("noise_covariance_m2: a measurement noise needs the gaussian estimator")
+            self.noise_covariance_m2 = noise
 
     @property
     def n_samples(self) -> int:
@@ -289,10 +306,31 @@ class Likelihood:
 
     def with_data(self, data_w_m: np.ndarray) -> "Likelihood":
         """The same J (model, design, options) for other measured deflections."""
+        same = np.asarray(data_w_m).shape[0] == self.data_w_m.shape[0]
         return Likelihood(self.model, self.design, data_w_m, estimator=self.estimator,
                           system_height_mode=self.system_height_mode, slack_taper_n=self.slack_taper_n,
                           max_slack_fraction=self.max_slack_fraction, bandwidth=self.bandwidth,
-                          chunk_size=self.chunk_size, sampler=self.sampler)
+                          chunk_size=self.chunk_size, sampler=self.sampler,
+                          noise_covariance_m2=self.noise_covariance_m2, n_runs=self.n_runs if same else None)
+
+    def data_log_density(self, fit: GaussianFit) -> np.ndarray:
+        """``ln p(W_k)`` of each measured span under the model's Gaussian law ``fit``, with its
+        measurement noise ``R / n_runs`` added when the likelihood has one.
+
+        Raises
+        ------
+        numpy.linalg.LinAlgError
+            If a covariance is not positive definite.
+        """
+        if self.noise_covariance_m2 is None:
+            return gaussian_log_density(self.data_w_m, fit)
+        covariance = fit.chol @ fit.chol.T
+        out = np.empty(self.data_w_m.shape[0])
+        for runs in np.unique(self.n_runs):
+            rows = self.n_runs == runs
+            chol = np.linalg.cholesky(covariance + self.noise_covariance_m2 / runs)
+            out[rows] = gaussian_log_density(self.data_w_m[rows], GaussianFit(fit.mean, chol, fit.n_effective))
+        return out
 
     def taper_weights(self, min_force: np.ndarray) -> np.ndarray:
         """Weight of each model sample: Φ(F_min / τ), the slack taper (module docstring)."""
@@ -378,9 +416,9 @@ class Likelihood:
             return LikelihoodValue(-np.inf, slack, 0.0, "slack")
         try:
             fit = _fit_from_moments(sum_w, sum_w2, s1, s2, self._shift)
+            logp = self.data_log_density(fit)
         except np.linalg.LinAlgError:
             return LikelihoodValue(-np.inf, slack, 0.0, "singular")
-        logp = gaussian_log_density(self.data_w_m, fit)
         return LikelihoodValue(float(np.sum(logp)), slack, fit.n_effective, "ok", logp, fit)
 
     def __call__(self, means: np.ndarray, sigmas: np.ndarray, extra=None) -> float:

@@ -64,26 +64,38 @@ class CorrectedData:
     mast_pairs : numpy.ndarray of int, shape (P, 2), or None
         Rows of ``w_m`` that share a mast (:func:`.dependence.adjacent_span_pairs`); None when
         the file does not say (no ``section_id``, ``start_chainage_m``, ``end_chainage_m``).
+    n_runs : numpy.ndarray of int, shape (K,)
+        Converged runs averaged into each row of ``w_m``.
     """
 
     w_m: np.ndarray
     span_id: np.ndarray
     left_out: list[tuple[str, str]]
     mast_pairs: np.ndarray | None = None
+    n_runs: np.ndarray | None = None
 
 
-def read_corrected(path: str | Path, span_type: SpanType) -> CorrectedData:
-    """Read ``corrected.parquet`` and keep the spans whose correction converged.
+#: Largest distance between the registered positions of one mast as two spans of several runs
+#: give it, for the two spans to share it [m] (a registration places a mast to centimetres).
+_SHARED_MAST_TOLERANCE_M = 0.5
+
+
+def read_corrected(path: str | Path, span_type: SpanType, flagged: dict[str, str] | None = None) -> CorrectedData:
+    """Read ``corrected.parquet`` and keep the spans whose correction converged, each averaged
+    over its converged runs.
 
     Parameters
     ----------
     path : str or pathlib.Path
-        Output of the correction rule: ``span_id``, ``w1_m`` … ``wn_m`` [m], ``converged``;
-        ``section_id``, ``start_chainage_m`` and ``end_chainage_m`` [m], when present, say which
-        spans share a mast (other columns, e.g. ``gap_norm_m`` and ``iterations``, are only
-        reported).
+        Output of the correction rule: ``span_id``, ``w1_m`` … ``wn_m`` [m], ``converged``, one
+        row per span and run (``run_id``); ``section_id``, ``start_chainage_m`` and
+        ``end_chainage_m`` [m], when present, say which spans share a mast (other columns, e.g.
+        ``gap_norm_m`` and ``iterations``, are only reported).
     span_type : SpanType
         Gives n, the number of ``w*_m`` columns expected.
+    flagged : dict of str to str, optional
+        Spans whose runs disagree beyond the repeatability (:mod:`catenary.repeatability`),
+        with the reason: left out.
 
     Raises
     ------
@@ -109,6 +121,8 @@ def read_corrected(path: str | Path, span_type: SpanType) -> CorrectedData:
         col = w_cols[int(np.flatnonzero(~np.isfinite(w[row]))[0])]
         raise InputError(f"{path}: row {row + 1} (span {df['span_id'].iloc[row]}), column {col}: expected a "
                          f"finite deflection [m] on a converged span, got {w[row, w_cols.index(col)]!r}")
+    flagged = flagged or {}
+    several = "run_id" in df.columns and df["run_id"].nunique() > 1
     left_out = []
     for i in np.flatnonzero(~converged):
         why = "dynamic correction did not converge"
@@ -117,13 +131,24 @@ def read_corrected(path: str | Path, span_type: SpanType) -> CorrectedData:
             if "iterations" in df.columns:
                 why += f" after {int(df['iterations'].iloc[i])} iterations"
             why += ")"
+        if several:
+            why = f"run {df['run_id'].iloc[i]}: {why}"
         left_out.append((str(df["span_id"].iloc[i]), why))
+    used = df[converged].assign(**{c: w[converged][:, k] for k, c in enumerate(w_cols)})
+    left_out += [(span, why) for span, why in flagged.items() if span in set(used["span_id"])]
+    used = used[~used["span_id"].isin(list(flagged))]
+    order = list(dict.fromkeys(used["span_id"]))
+    groups = used.groupby("span_id", sort=False)
+    mean_w = groups[w_cols].mean().loc[order].to_numpy(dtype=float)
+    n_runs = groups.size().loc[order].to_numpy(dtype=int)
     pairs = None
     if all(c in df.columns for c in _ADJACENCY):
-        used = df[converged]
-        pairs = adjacent_span_pairs(used["section_id"], used["start_chainage_m"], used["end_chainage_m"])
-    return CorrectedData(w_m=w[converged], span_id=df["span_id"].to_numpy(dtype=str)[converged], left_out=left_out,
-                         mast_pairs=pairs)
+        place = groups.agg(section_id=("section_id", "first"), start=("start_chainage_m", "mean"),
+                           end=("end_chainage_m", "mean")).loc[order]
+        pairs = adjacent_span_pairs(place["section_id"], place["start"], place["end"],
+                                    tolerance_m=_SHARED_MAST_TOLERANCE_M if several else 1e-3)
+    return CorrectedData(w_m=mean_w, span_id=np.asarray(order, dtype=str), left_out=left_out, mast_pairs=pairs,
+                         n_runs=n_runs)
 
 
 @dataclass(frozen=True)
@@ -298,6 +323,10 @@ class IdentificationRun:
     total_time_s : float
         Wall time of :func:`run_identification` (fast model, identification, normality,
         marginals, band) [s].
+    noise_covariance_m2 : numpy.ndarray or None
+        The measurement noise of one run in the likelihood [m²] (``measurement_noise``).
+    n_runs : numpy.ndarray or None
+        Runs averaged into each span's W.
     """
 
     span_type: SpanType
@@ -315,6 +344,8 @@ class IdentificationRun:
     profiles: list[ProfileInterval]
     profile_time_s: float
     total_time_s: float
+    noise_covariance_m2: np.ndarray | None = None
+    n_runs: np.ndarray | None = None
 
 
 #: Spans per identified parameter below which the standard errors are flagged as rough: they
@@ -349,7 +380,9 @@ def check_span_count(name: str, n_spans: int, n_parameters: int, log, *, n_left_
 
 def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray,
                        settings: IdentificationSettings, *, left_out: list[tuple[str, str]] | None = None,
-                       mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None) -> IdentificationRun:
+                       mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None,
+                       noise_covariance_m2: np.ndarray | None = None,
+                       n_runs: np.ndarray | None = None) -> IdentificationRun:
     """Identify the input laws of ``span_type`` from measured deflections and build every output.
 
     Parameters
@@ -366,6 +399,11 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
         the standard errors are the observed information's whatever ``settings.standard_errors``.
     log : logging.Logger, optional
         Progress messages (default: this module's logger).
+    noise_covariance_m2 : numpy.ndarray, optional
+        Covariance of one run's W error [m²] added to the model's law (divided by ``n_runs``):
+        :meth:`.settings.IdentificationSettings.noise_covariance_m2`.
+    n_runs : numpy.ndarray of int, optional
+        Runs averaged into each row of ``data_w_m`` (default 1).
 
     Returns
     -------
@@ -387,7 +425,13 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     n = span_type.n_droppers
     lik = make_likelihood(span_type, catenary, data, start=start, n_samples=s.n_samples, design_method=s.design,
                           seed=s.seed, system_height_mode=s.system_height_mode, estimator=s.estimator,
-                          bandwidth=s.bandwidth, neighbours=s.neighbours)
+                          bandwidth=s.bandwidth, neighbours=s.neighbours, noise_covariance_m2=noise_covariance_m2,
+                          n_runs=n_runs)
+    if noise_covariance_m2 is not None:
+        runs = np.ones(data.shape[0], dtype=int) if n_runs is None else np.asarray(n_runs)
+        log.info("%s: measurement noise in the likelihood: %.3f mm RMS per run (%s), spans averaged over %s run(s)",
+                 span_type.name, 1e3 * float(np.sqrt(np.mean(np.diag(noise_covariance_m2)))), s.measurement_noise,
+                 "/".join(str(k) for k in np.unique(runs)))
     mu0 = np.array([r.mean for r in start])
     sd0 = np.array([r.sigma for r in start])
     j_start = lik(mu0, sd0)
@@ -468,7 +512,8 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     return IdentificationRun(span_type=span_type, settings=s, start=start, result=result, j_start=float(j_start),
                              data_w_m=data, left_out=list(left_out or []), normality=normality, marginals=marginals,
                              band=band, data_in_band=inside.mean(axis=0), identification_time_s=result.time_s,
-                             profiles=profiles, profile_time_s=profile_time, total_time_s=time.perf_counter() - t0)
+                             profiles=profiles, profile_time_s=profile_time, total_time_s=time.perf_counter() - t0,
+                             noise_covariance_m2=noise_covariance_m2, n_runs=n_runs)
 
 
 def s_opt_table(result: IdentificationResult, profiles: list[ProfileInterval] = ()) -> pd.DataFrame:
@@ -562,6 +607,17 @@ def markdown_report(run: IdentificationRun, *, source: str = "corrected.parquet"
     lines += [f"Maximum likelihood of the measured static deflections W under independent Gamma inputs "
               f"(paper §3). Data: {run.data_w_m.shape[0]} spans from `{source}` (converged "
               f"correction); {len(run.left_out)} left out.", ""]
+    runs = run.n_runs if run.n_runs is not None else np.ones(run.data_w_m.shape[0], dtype=int)
+    if runs.max() > 1:
+        counts = ", ".join(f"{int((runs == k).sum())} spans × {k} run(s)" for k in np.unique(runs))
+        lines += [f"Several runs: each span's W is the mean of its converged runs ({counts}).", ""]
+    if run.noise_covariance_m2 is not None:
+        lines += [f"Measurement noise in the likelihood (`measurement_noise: {s.measurement_noise}`): "
+                  f"{1e3 * float(np.sqrt(np.mean(np.diag(run.noise_covariance_m2)))):.3f} mm RMS per dropper and run, "
+                  "divided by each span's number of runs; the dropper σ are the geometry's alone.", ""]
+    else:
+        lines += ["No measurement noise in the likelihood (one run, or `measurement_noise: none`): the "
+                  "measured W's own error (≈ 0.4–0.6 mm) is in the dropper σ.", ""]
     for span_id, why in run.left_out:
         lines.append(f"- left out {span_id}: {why}")
     if run.left_out:

@@ -125,6 +125,12 @@ class IdentificationSettings:
     normality_n_samples : int
         Size of the i.i.d. model samples tested for normality at s0 and s_opt (the test costs
         O(n²); see :func:`.report.normality_report` for why not the design itself).
+    measurement_noise : str or float
+        The measured W's own error in the likelihood: ``"repeatability"`` (the covariance the
+        runs of a recording measured several times show, :mod:`catenary.repeatability`, divided
+        by each span's number of runs; none when no span was measured twice), ``"none"`` (no
+        noise term: the dropper σ absorb it, the paper's), or a standard deviation [m] assumed
+        for each dropper of one run.
     """
 
     random_inputs: tuple[str, ...] = (DROPPER_GROUP, MESSENGER_TENSION, SYSTEM_HEIGHT)
@@ -159,6 +165,7 @@ class IdentificationSettings:
     band_n_points: int = 235
     normality_alpha: float = 0.05
     normality_n_samples: int = 10_000
+    measurement_noise: str | float = "repeatability"
 
     def __post_init__(self) -> None:
         check(self.as_mapping(), "config", "identification")
@@ -201,7 +208,8 @@ class IdentificationSettings:
             profile_max_evaluations=raw["profile_intervals"]["max_evaluations"],
             estimators_n_samples=tuple(raw["estimators_n_samples"]),
             **{f"band_{k}": v for k, v in raw["band"].items()},
-            **{f"normality_{k}": v for k, v in raw["normality"].items()})
+            **{f"normality_{k}": v for k, v in raw["normality"].items()},
+            measurement_noise=raw["measurement_noise"])
 
     def as_mapping(self) -> dict[str, Any]:
         """The settings as the config block ``identification`` (the schema's layout)."""
@@ -226,6 +234,7 @@ class IdentificationSettings:
             "estimators_n_samples": list(self.estimators_n_samples),
             "band": {"level": self.band_level, "n_samples": self.band_n_samples, "n_points": self.band_n_points},
             "normality": {"alpha": self.normality_alpha, "n_samples": self.normality_n_samples},
+            "measurement_noise": self.measurement_noise,
         }
 
     def as_dict(self) -> dict[str, Any]:
@@ -257,6 +266,15 @@ class IdentificationSettings:
     def free_mean_names(self, n_droppers: int) -> tuple[str, ...]:
         """Names of the inputs whose mean is identified (design order)."""
         return self._expand(self.free_means, n_droppers, "free_means")
+
+    def noise_covariance_m2(self, n_droppers: int, repeatability_m2: np.ndarray | None) -> np.ndarray | None:
+        """Covariance of one run's W error the likelihood adds (``measurement_noise``) [m²]:
+        the repeatability's, an assumed σ² I, or None."""
+        if self.measurement_noise == "none":
+            return None
+        if self.measurement_noise == "repeatability":
+            return None if repeatability_m2 is None else np.asarray(repeatability_m2, dtype=float)
+        return float(self.measurement_noise) ** 2 * np.eye(n_droppers)
 
     def start_inputs(self, span_type: SpanType, catenary: Catenary) -> tuple[RandomInput, ...]:
         """Start laws s0 of ``span_type`` in design order (droppers, T_MW, ΔH).

@@ -6,6 +6,9 @@ from catenary.schema import check as check_schema
 
 RESULTS = config["results"]
 SPAN_TYPES = config["span_types"]
+RECORDING_FILES = config["recording"] if isinstance(config["recording"], list) else [config["recording"]]
+# A run on the virtual campaign's own recording: the validation rules compare with its truth.
+CAMPAIGN_RUN = any(str(path).startswith(f"{RESULTS}/campaign/") for path in RECORDING_FILES)
 
 
 def _load_catenary_config():
@@ -116,8 +119,8 @@ def static_outputs():
 
 def measurement_outputs():
     outputs = [f"{RESULTS}/spans_report.csv"]
-    if config["recording"].startswith(f"{RESULTS}/campaign/"):
-        outputs.append(f"{RESULTS}/validation/projection_round_trip.csv")
+    if CAMPAIGN_RUN:
+        outputs += [f"{RESULTS}/validation/projection_round_trip.csv", f"{RESULTS}/validation/registration_check.csv"]
     return outputs
 
 
@@ -129,10 +132,10 @@ def identification_outputs(span_types=SPAN_TYPES):
             f"{RESULTS}/{{span_type}}/identification/{name}"
             for name in ("s_opt.csv", "trace.parquet", "estimators.png", "normality.json", "band.png",
                          "identification.md")
-        ],
+        ] + [f"{RESULTS}/{{span_type}}/repeatability/summary.csv"],
         span_type=span_types,
     )
-    if config["recording"].startswith(f"{RESULTS}/campaign/"):
+    if CAMPAIGN_RUN:
         outputs.append(f"{RESULTS}/validation/identification_check.csv")
     return outputs
 
@@ -192,7 +195,7 @@ def correction_sections(wildcards=None):
 def correction_outputs():
     outputs = expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES)
     outputs += [f"{RESULTS}/correction/convergence.csv", f"{RESULTS}/correction/summary.csv"]
-    if config["recording"].startswith(f"{RESULTS}/campaign/"):
+    if CAMPAIGN_RUN:
         outputs.append(f"{RESULTS}/validation/correction_check.csv")
     return outputs
 
@@ -208,7 +211,7 @@ def diagnosis_outputs(span_types=SPAN_TYPES):
         ],
         span_type=span_types,
     )
-    if config["recording"].startswith(f"{RESULTS}/campaign/"):
+    if CAMPAIGN_RUN:
         outputs.append(f"{RESULTS}/validation/diagnosis_check.csv")
     return outputs
 

@@ -5,7 +5,7 @@ rule correct_section:
     """Iterative dynamic correction of one section's spans (paper §2.2, Fig. 5)."""
     input:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
-        recording=f"{RESULTS}/ingest/recording.parquet",
+        report=f"{RESULTS}/spans_report.csv",
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:

@@ -7,7 +7,6 @@ rule diagnose:
     shrink (README: Discrepancy workflow)."""
     input:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
-        recording=f"{RESULTS}/ingest/recording.parquet",
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:

@@ -1,12 +1,34 @@
 # identification_outputs() lives in common.smk (the linter wants no functions beside rules).
 
 
+rule repeatability:
+    """The measurement's repeatability of one span type from its spans measured by several runs
+    (none with one run), and the spans whose runs disagree beyond it."""
+    input:
+        corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
+    output:
+        summary=reported(f"{RESULTS}/{{span_type}}/repeatability/summary.csv", "repeatability", IDENTIFICATION, "Repeatability"),
+        spans=f"{RESULTS}/{{span_type}}/repeatability/spans.csv",
+        noise=f"{RESULTS}/{{span_type}}/repeatability/noise.json",
+    params:
+        level=config["repeatability"]["level"],
+    log:
+        f"{RESULTS}/logs/repeatability/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/repeatability/{{span_type}}.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/repeatability.py"
+
+
 rule identify:
     """Stochastic identification of one span type (paper §3–4.2): s_opt with standard
     errors, the J trace, Gaussian vs kernel estimates (Fig. 7), Henze–Zirkler tests, the 98 %
     band of the CW deflection (Fig. 10) and a report."""
     input:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
+        noise=f"{RESULTS}/{{span_type}}/repeatability/noise.json",
         catenary=config["catenary"],
     output:
         s_opt=reported(f"{RESULTS}/{{span_type}}/identification/s_opt.csv", "s_opt", IDENTIFICATION, "Table 2: s_opt"),

@@ -7,6 +7,7 @@ rule campaign_section:
     output:
         recording=f"{RESULTS}/campaign/sections/{{section}}_recording.parquet",
         truth=f"{RESULTS}/campaign/sections/{{section}}_truth.parquet",
+        truth_runs=f"{RESULTS}/campaign/sections/{{section}}_truth_runs.parquet",
     log:
         f"{RESULTS}/logs/campaign_section/{{section}}.log",
     benchmark:
@@ -18,17 +19,21 @@ rule campaign_section:
 
 
 rule campaign:
-    """Gather the sections: recording (Parquet and CSV), masts and, apart, the truth."""
+    """Gather the sections: recording (Parquet and CSV; every run), masts (the table as given to
+    the car, with its planted errors) and, apart, the truth (per span, per span and run, per mast)."""
     input:
         campaign=config["campaign"],
         catenary=config["catenary"],
         recordings=expand(f"{RESULTS}/campaign/sections/{{section}}_recording.parquet", section=CAMPAIGN_SECTIONS),
         truths=expand(f"{RESULTS}/campaign/sections/{{section}}_truth.parquet", section=CAMPAIGN_SECTIONS),
+        truth_runs=expand(f"{RESULTS}/campaign/sections/{{section}}_truth_runs.parquet", section=CAMPAIGN_SECTIONS),
     output:
         recording=f"{RESULTS}/campaign/recording.parquet",
         recording_csv=f"{RESULTS}/campaign/recording.csv",
         masts=f"{RESULTS}/campaign/masts.csv",
+        masts_truth=f"{RESULTS}/campaign/masts_truth.csv",
         truth=f"{RESULTS}/campaign/truth.parquet",
+        truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
     log:
         f"{RESULTS}/logs/campaign.log",
     benchmark:
@@ -40,13 +45,14 @@ rule campaign:
 
 
 rule ingest:
-    """Check the recording and masts files and store them as Parquet."""
+    """Check the recording file(s) and the masts file and store them as Parquet."""
     input:
-        recording=config["recording"],
-        masts=config["masts"],
+        recording=RECORDING_FILES,
+        masts=[config["masts"]] if config["masts"] else [],
     output:
         recording=f"{RESULTS}/ingest/recording.parquet",
         masts=f"{RESULTS}/ingest/masts.parquet",
+        runs=f"{RESULTS}/ingest/runs.csv",
     log:
         f"{RESULTS}/logs/ingest.log",
     benchmark:
@@ -57,17 +63,49 @@ rule ingest:
         "../../scripts/ingest.py"
 
 
-checkpoint project:
-    """Cut into spans, estimate W at the droppers, report every span used or rejected."""
+rule register:
+    """Register the mast table onto every run's trace: the odometer's offset, scale and drift per
+    section, masts missing from or extra in the table; or find the masts from the trace."""
     input:
         recording=f"{RESULTS}/ingest/recording.parquet",
         masts=f"{RESULTS}/ingest/masts.parquet",
         catenary=config["catenary"],
+        pantographs=config["pantographs"],
+    output:
+        table=f"{RESULTS}/registration/masts_table.csv",
+        masts=reported(f"{RESULTS}/registration/masts.csv", "registration_masts", PROJECTION, "Registered masts", category=LINE),
+        sections=reported(f"{RESULTS}/registration/sections.csv", "registration_sections", PROJECTION, "Registered sections", category=LINE),
+        figure=reported(f"{RESULTS}/registration/residuals.png", "registration_residuals", PROJECTION, "Registration residuals", category=LINE),
+    params:
+        registration=config["registration"],
+        correction=config["correction"],
+    log:
+        f"{RESULTS}/logs/register.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/register.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/register.py"
+
+
+checkpoint project:
+    """Cut every run into spans along its registered masts, estimate W at the droppers, check each
+    cut against the trace, report every span of every run used or rejected."""
+    input:
+        recording=f"{RESULTS}/ingest/recording.parquet",
+        table=f"{RESULTS}/registration/masts_table.csv",
+        registered_masts=f"{RESULTS}/registration/masts.csv",
+        sections=f"{RESULTS}/registration/sections.csv",
+        catenary=config["catenary"],
+        pantographs=config["pantographs"],
     output:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         report=reported(f"{RESULTS}/spans_report.csv", "spans_report", PROJECTION, "Spans used and rejected", category=LINE),
     params:
         projection=config["projection"],
+        registration=config["registration"],
+        correction=config["correction"],
         span_types=SPAN_TYPES,
     log:
         f"{RESULTS}/logs/project.log",
@@ -79,11 +117,31 @@ checkpoint project:
         "../../scripts/project.py"
 
 
+rule registration_check:
+    """Validation only: registered masts against the campaign's true masts."""
+    input:
+        masts=f"{RESULTS}/registration/masts.csv",
+        masts_truth=f"{RESULTS}/campaign/masts_truth.csv",
+        truth=f"{RESULTS}/campaign/truth.parquet",
+        truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
+    output:
+        summary=reported(f"{RESULTS}/validation/registration_check.csv", "validation_registration", PROJECTION, "Registration vs truth", category=VALIDATION),
+    log:
+        f"{RESULTS}/logs/registration_check.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/registration_check.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/registration_check.py"
+
+
 rule projection_check:
-    """Validation only: projected W against the campaign's truth (dynamic W)."""
+    """Validation only: projected W against the campaign's truth (dynamic W of each run)."""
     input:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         truth=f"{RESULTS}/campaign/truth.parquet",
+        truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
     output:
         summary=reported(f"{RESULTS}/validation/projection_round_trip.csv", "validation_projection", PROJECTION, "Projection vs truth", category=VALIDATION),
     params:

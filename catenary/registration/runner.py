@@ -1,0 +1,690 @@
+"""Register the mast table onto each run's trace (or find the masts from the trace alone).
+
+For each run, the sections of the mast table are taken in the run's order of travel, each
+starting from the map of the section before (the odometer's error grows with the distance
+travelled):
+
+1. **Coarse.** Each table mast is looked for within ``± max_offset_m`` of where the map so far
+   puts it: the stagger's reversal (``|kink|`` of the stagger), or, in the height alone, in two
+   scales. First the sag: the wire is highest at its supports, so the height's kink over
+   ±8 m windows peaks at each mast (a broad peak, good to a metre or two, with no alias: the
+   next mast is a span away). Then, within ±2.25 m of the line the masts' sag peaks agree
+   on (less than half the shortest spacing of a mast and its first dropper, so that the comb
+   cannot slip by one dropper), the comb of the two adjacent spans' droppers (the sum of the
+   height's ±1 m kink signal at the droppers' design places). At each scale the offsets of all
+   masts are reconciled by the line (offset and scale within ``max_scale_error``) that the most
+   masts agree with, so that one mast matched in the wrong place does not pull the map.
+2. **Fine.** Around that line each mast's support is fitted within ``± search_m``
+   (:mod:`.supports`), with its standard error.
+3. **Map.** The map from table to recorded chainage is fitted robustly to the supports found
+   (:mod:`.mapping`); a mast whose support lies too far from it is left to the table. Where the
+   supports agree with the recording's chainage as it is (offset and scale not significantly
+   off, the height's lag uncertain by ``height_lag_std_m``), the map is the identity.
+4. **Masts.** Each mast's registered chainage (in the table's frame) weighs the trace's
+   position against the table's by their standard errors. A mast that the trace does not
+   confirm and whose removal leaves a span of a known length is **extra in the table** and is
+   dropped; a registered span as long as two spans hides a mast **missing from the table**,
+   inserted where the trace (or else the span types' length) puts it, with the id
+   ``<left mast>+1``.
+5. **Refusal.** A section whose trace confirms fewer than ``min_matched_fraction`` of its masts
+   (and at least ``min_matched_masts``), or whose confirmed masts sit further from the map than
+   ``max_residual_m`` in RMS, is refused with that reason; a section the run does not cover is
+   reported as such. The projection then rejects every span of such a section for that run.
+
+Without a mast table (:func:`masts_from_trace`), the supports are found along the first run's
+trace, sections end at gaps in the recording, and the span types are read from the supports'
+spacing; every run is then registered onto that table.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from ..config import Catenary, SpanType
+from .mapping import ChainageMap, fit_map
+from .settings import RegistrationSettings
+from .supports import LocalFit, Trace, align_pattern, kink_signal, locate_stagger_support, trace_of
+
+__all__ = ["MAST_COLUMNS", "SECTION_COLUMNS", "RunRegistration", "masts_from_trace", "register_run", "support_kinks",
+           "support_line", "unregistered_run"]
+
+MATCHED, TABLE_ONLY, MISSING, EXTRA = "matched", "table_only", "missing_from_table", "extra_in_table"
+REGISTERED, REFUSED, NOT_COVERED, UNREGISTERED = "registered", "refused", "not_covered", "unregistered"
+
+MAST_COLUMNS = ["run_id", "section_id", "mast_id", "span_type", "status", "method", "table_chainage_m",
+                "recorded_chainage_m", "chainage_m", "std_m", "residual_m"]
+"""Columns of the registered masts: one row per run and mast of the table (and per mast the
+registration inserted). ``span_type``: of the span starting at the mast (empty at a section's last
+mast); ``status``: ``matched`` (the trace confirms it), ``table_only`` (position from the table),
+``missing_from_table`` (inserted), ``extra_in_table`` (dropped); ``method``: what placed it
+(``stagger``, ``height``, ``table``, ``span_length``); ``table_chainage_m`` (NaN when inserted),
+``recorded_chainage_m`` (in the run's own chainage), ``chainage_m`` (registered, in the table's
+frame; NaN when dropped), ``std_m`` (its standard error), ``residual_m`` (trace position minus the
+map, in table metres; NaN unless matched)."""
+
+SECTION_COLUMNS = ["run_id", "section_id", "status", "reason", "n_table_masts", "n_matched",
+                   "n_missing_from_table", "n_extra_in_table", "offset_m", "scale", "degree", "residual_rms_m",
+                   "recorded_low_m", "recorded_high_m", "reference_m", "coefficients"]
+"""Columns of the registered sections: one row per run and section. ``status``: ``registered``,
+``refused`` (``reason`` says why), ``not_covered`` (the run has no samples there),
+``unregistered`` (registration switched off); ``offset_m`` and ``scale`` of the map at the
+section's middle, its ``degree``, the RMS of the matched masts' residuals, the recorded chainages
+the section spans, and the map's polynomial (``coefficients``, space-separated, in powers of
+the table chainage minus ``reference_m``)."""
+
+#: Step of the coarse search of each mast [m].
+_COARSE_STEP_M = 0.05
+#: Half-widths of the kink signals [m]: height (droppers), height (the span's sag) and stagger
+#: (supports).
+_HEIGHT_KINK_HALF_M, _SAG_KINK_HALF_M, _STAGGER_KINK_HALF_M = 1.0, 8.0, 3.0
+#: Weights of the sag's kink added to the droppers' comb (support_line). Measured: 0.1 finds the
+#: right offset at 31 of 42 masts of the small campaign (26 with the comb alone, 18 at weight 1);
+#: the hand-made example (data/example, no dropper kinks in its trace) registers only at 1.
+_SAG_WEIGHTS = (0.1, 1.0)
+#: Margin of recorded samples kept around a registered section [m].
+MARGIN_M = 5.0
+
+
+@dataclass
+class RunRegistration:
+    """The registration of one run.
+
+    Attributes
+    ----------
+    run_id : str
+    direction : int
+    masts : pandas.DataFrame
+        :data:`MAST_COLUMNS`.
+    sections : pandas.DataFrame
+        :data:`SECTION_COLUMNS`.
+    maps : dict of str to ChainageMap
+        The map of every registered section.
+    """
+
+    run_id: str
+    direction: int
+    masts: pd.DataFrame
+    sections: pd.DataFrame
+    maps: dict = field(default_factory=dict)
+
+
+@dataclass
+class _TableSection:
+    section_id: str
+    mast_id: list
+    table_m: np.ndarray           # table chainage; for a mast missing from the table, where the span types put it
+    span_type: list               # type of the span starting at each mast (None at the last)
+    table_std_m: np.ndarray       # standard error of table_m
+    missing: np.ndarray           # inserted: missing from the table
+    extra: list = field(default_factory=list)     # (mast_id, table chainage) of masts dropped as extra
+
+
+def _span_types_of(masts: pd.DataFrame, catenary: Catenary) -> list:
+    """Span type of the span starting at each mast: the table's, or the type nearest in length."""
+    types = []
+    x = masts["chainage_m"].to_numpy(dtype=float)
+    sec = masts["section_id"].to_numpy(dtype=object)
+    declared = masts["span_type"].to_numpy(dtype=object)
+    for i in range(len(masts)):
+        if i + 1 >= len(masts) or sec[i + 1] != sec[i]:
+            types.append(None)
+            continue
+        name = declared[i]
+        types.append(name if isinstance(name, str) and name in catenary.span_types
+                     else _nearest_type(x[i + 1] - x[i], catenary))
+    return types
+
+
+def _table_sections(masts: pd.DataFrame, catenary: Catenary, settings: RegistrationSettings) -> list[_TableSection]:
+    """The table's sections, made consistent with the span types' lengths (module docs, step 4):
+    a mast whose two spans match no span type while the two together match one is extra; a span
+    as long as two spans gets the mast missing between them, where the span types put it."""
+    types = _span_types_of(masts, catenary)
+    lengths = np.array([st.length_m for st in catenary.span_types.values()])
+    tol = settings.length_tolerance_m
+    out = []
+    for section_id, rows in masts.groupby("section_id", sort=False):
+        idx = rows.index.to_numpy()
+        ids = rows["mast_id"].astype(str).tolist()
+        x = rows["chainage_m"].to_numpy(dtype=float).tolist()
+        kinds = [types[i] for i in idx]
+        std = [settings.mast_table_std_m] * len(ids)
+        missing = [False] * len(ids)
+        extra = []
+        changed = True
+        while changed:
+            changed = False
+            for j in range(1, len(ids) - 1):
+                left, right = x[j] - x[j - 1], x[j + 1] - x[j]
+                if (not _matches(left, lengths, tol) and not _matches(right, lengths, tol)
+                        and _matches(left + right, lengths, tol)):
+                    extra.append((ids[j], x[j]))
+                    kinds[j - 1] = _nearest_type(left + right, catenary)
+                    for seq in (ids, x, kinds, std, missing):
+                        del seq[j]
+                    changed = True
+                    break
+            if changed:
+                continue
+            for j in range(len(ids) - 1):
+                pair = None if _matches(x[j + 1] - x[j], lengths, tol) else _two_spans(
+                    x[j + 1] - x[j], kinds[j], catenary, 2 * tol)
+                if pair is not None:
+                    kinds[j] = pair[0]
+                    for seq, value in ((ids, f"{ids[j]}+1"), (x, x[j] + catenary.span_type(pair[0]).length_m),
+                                       (kinds, pair[1]), (std, tol), (missing, True)):
+                        seq.insert(j + 1, value)
+                    changed = True
+                    break
+        out.append(_TableSection(str(section_id), ids, np.array(x), kinds, np.array(std), np.array(missing), extra))
+    return out
+
+
+def _pattern(table_m: np.ndarray, types: list, j: int, catenary: Catenary) -> tuple[np.ndarray, float, float]:
+    """Kinks around mast ``j`` relative to it in table metres (the mast and the droppers of its two
+    spans), and the half-lengths of the spans before and after (0 at a section end)."""
+    offsets = [0.0]
+    left = right = 0.0
+    if j + 1 < table_m.size and types[j] is not None:
+        st = catenary.span_type(types[j])
+        offsets += list(st.dropper_positions_m)
+        right = 0.5 * (table_m[j + 1] - table_m[j])
+    if j > 0 and types[j - 1] is not None:
+        st = catenary.span_type(types[j - 1])
+        length = table_m[j] - table_m[j - 1]
+        offsets += list(st.dropper_positions_m - length)
+        left = 0.5 * length
+    return np.array(offsets), left, right
+
+
+def _local_fit(trace: Trace, where_m: float, offsets_m: np.ndarray, left_m: float, right_m: float, scale: float,
+               lag_m: float, search_m: float) -> tuple[LocalFit, str]:
+    """A mast's support near ``where_m`` (recording frame) and the signature that placed it: the
+    stagger's reversal when recorded (not at the end of a recorded stretch), else the height's
+    dropper pattern; ``position_m`` in the recording frame."""
+    if trace.has_stagger:
+        fit = locate_stagger_support(trace, where_m, search_m)
+        if fit.found:
+            return fit, "stagger"
+    if left_m == 0 or right_m == 0:
+        # a section's end: the droppers of one span alone place it too loosely (measured: errors of
+        # half a metre with standard errors of a decimetre); the table places it
+        return LocalFit(float("nan"), float("nan"), float("nan"), 0), "height"
+    low = where_m - scale * left_m
+    high = where_m + scale * right_m
+    fit = align_pattern(trace, where_m + scale * offsets_m, low, high, search_m, lag_m=lag_m)
+    return LocalFit(where_m + fit.position_m, fit.std_m, fit.statistic, fit.n_samples, fit.at_edge), "height"
+
+
+def _coarse_line(t: np.ndarray, predicted: np.ndarray, scores: np.ndarray, offsets: np.ndarray,
+                 max_scale_error: float, tolerance_m: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """(offset, scale) line through the masts' best coarse offsets that most masts agree with.
+
+    ``scores[j, k]`` is mast j's score at offset ``offsets[k]``. Returns the corrected predicted
+    positions (predicted + line) and the agreeing masts, or None when no two masts agree.
+    """
+    best = np.argmax(scores, axis=1)
+    has = np.isfinite(scores).any(axis=1) & (np.nanmax(np.where(np.isfinite(scores), scores, -np.inf), axis=1) > 0)
+    y = offsets[best]
+    candidates = np.flatnonzero(has)
+    if candidates.size < 2:
+        return None
+    top = (-1, np.inf, 0.0, 0.0)
+    for a in range(candidates.size):
+        for b in range(a + 1, candidates.size):
+            i, j = candidates[a], candidates[b]
+            slope = (y[j] - y[i]) / (t[j] - t[i])
+            if abs(slope) > max_scale_error * 1.05:
+                continue
+            residual = np.abs(y - (y[i] + slope * (t - t[i])))
+            agree = has & (residual <= tolerance_m)
+            key = (int(agree.sum()), -float(np.sum(residual[agree] ** 2)))
+            if key > (top[0], -top[1]):
+                top = (key[0], -key[1], y[i] - slope * t[i], slope)
+    if top[0] < 2:
+        return None
+    intercept, slope = top[2], top[3]
+    agree = has & (np.abs(y - (intercept + slope * t)) <= tolerance_m)
+    coef = np.polyfit(t[agree], y[agree], 1) if agree.sum() >= 3 else np.array([slope, intercept])
+    return predicted + np.polyval(coef, t), agree
+
+
+def _coarse_scores(trace: Trace, kinks: tuple[np.ndarray, np.ndarray], predicted: np.ndarray, table_m: np.ndarray,
+                   span_types: list, catenary: Catenary, scale: float, lag_m: float,
+                   reach_m: float, sag: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Score of every mast at every coarse offset (the sag's kink at the mast with ``sag``, else
+    the stagger's or the dropper comb; module docs)."""
+    kink_grid, kink = kinks
+    offsets = np.arange(-reach_m, reach_m + 0.5 * _COARSE_STEP_M, _COARSE_STEP_M)
+    scores = np.full((predicted.size, offsets.size), np.nan)
+    for j in range(predicted.size):
+        if sag:
+            features = np.array([lag_m])
+        elif trace.has_stagger:
+            features = np.zeros(1)
+        else:
+            pattern, _, _ = _pattern(table_m, span_types, j, catenary)
+            features = scale * pattern[1:] + lag_m
+        if features.size == 0:
+            continue
+        values = np.interp(predicted[j] + offsets[:, None] + features[None, :], kink_grid, kink, left=np.nan,
+                           right=np.nan)
+        if trace.has_stagger:
+            values = np.abs(values)
+        counts = np.isfinite(values).sum(axis=1)
+        scores[j] = np.where(counts > 0, np.nansum(values, axis=1) / np.maximum(counts, 1), np.nan)
+    return scores, offsets
+
+
+def support_kinks(trace: Trace) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """The kink signals the coarse search reads (:func:`catenary.registration.supports.kink_signal`)
+    on a grid of the run's chainage: (grid, the stagger's, None) when the stagger is recorded,
+    else (grid, the height's at the droppers' scale, the height's at the sag's scale)."""
+    grid = np.arange(trace.chainage_m[0], trace.chainage_m[-1], _COARSE_STEP_M)
+    if trace.has_stagger:
+        return grid, kink_signal(trace, grid, _STAGGER_KINK_HALF_M, "stagger"), None
+    return (grid, kink_signal(trace, grid, _HEIGHT_KINK_HALF_M, "height"),
+            kink_signal(trace, grid, _SAG_KINK_HALF_M, "height"))
+
+
+def support_line(trace: Trace, kinks: tuple[np.ndarray, np.ndarray], table_m: np.ndarray, span_types: list,
+                 predicted_m: np.ndarray, catenary: Catenary, *, scale: float, lag_m: float, reach_m: float,
+                 max_scale_error: float, tolerance_m: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where a section's supports are, from the coarse search (module docs, step 1).
+
+    Parameters
+    ----------
+    trace, kinks : the run's trace and its :func:`support_kinks`
+    table_m : numpy.ndarray
+        The masts' chainages in the frame their span lengths are in [m].
+    span_types : list
+        Type of the span starting at each mast (None at the last).
+    predicted_m : numpy.ndarray
+        Where the masts are believed to be in the trace's frame [m].
+    scale, lag_m : float
+        Trace metres per table metre; the height's lag [m].
+    reach_m, max_scale_error, tolerance_m : float
+        Offsets tried [m]; largest scale error; how close to the line a mast must be to agree [m].
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray of bool, numpy.ndarray) or None
+        The supports' positions on the line most masts agree with, which masts agree, and each
+        mast's own best offset from ``predicted_m`` [m] (NaN without a score); None when no two
+        masts agree.
+    """
+    grid, fine, sag = kinks
+    comb, offsets = _coarse_scores(trace, (grid, fine), predicted_m, table_m, span_types, catenary, scale, lag_m,
+                                   reach_m)
+    weighted = [comb]
+    if sag is not None:
+        # The sag's broad peak at each mast added to the comb with two weights: a little (it
+        # breaks the ties of a comb that slips by one dropper spacing) and as much (it carries
+        # the search where the droppers' kinks are fainter than the model's). The weighting on
+        # whose line more masts agree is kept.
+        broad, _ = _coarse_scores(trace, (grid, sag), predicted_m, table_m, span_types, catenary, scale, lag_m,
+                                  reach_m, sag=True)
+        weighted = [comb + w * broad for w in _SAG_WEIGHTS]
+    line, scores = None, weighted[0]
+    for candidate in weighted:
+        found = _coarse_line(table_m, predicted_m, candidate, offsets, max_scale_error, tolerance_m)
+        if found is not None and (line is None or found[1].sum() > line[1].sum()):
+            line, scores = found, candidate
+    if line is None:
+        return None
+    has = np.isfinite(scores).any(axis=1)
+    own = np.where(has, offsets[np.argmax(np.where(np.isfinite(scores), scores, -np.inf), axis=1)], np.nan)
+    return line[0], line[1], own
+
+
+def _matches(length: float, lengths: np.ndarray, tolerance: float) -> bool:
+    return bool(np.any(np.abs(lengths - length) <= tolerance))
+
+
+def register_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary, settings: RegistrationSettings,
+                 lag: Callable[[str, float], float], log=None) -> RunRegistration:
+    """Register the mast table onto one run (module docs).
+
+    Parameters
+    ----------
+    samples : pandas.DataFrame
+        The run's rows of a validated recording (``chainage_m``, ``height_m``, ``stagger_m``,
+        ``speed_kmh``, ``run_id``, ``direction``).
+    masts : pandas.DataFrame
+        Validated masts (:func:`catenary.recording.validate_masts`).
+    catenary : Catenary
+    settings : RegistrationSettings
+    lag : callable
+        ``lag(span_type, speed_kmh)``: lag of the height's dropper kinks for a run towards
+        increasing chainage [m] (:func:`catenary.registration.lag.height_lag_m`).
+    log : logging.Logger, optional
+
+    Returns
+    -------
+    RunRegistration
+    """
+    run_id = str(samples["run_id"].iloc[0])
+    direction = int(samples["direction"].iloc[0])
+    trace = trace_of(samples["chainage_m"].to_numpy(), samples["height_m"].to_numpy(),
+                     samples["stagger_m"].to_numpy() if samples["stagger_m"].notna().any() else None)
+    speed = float(samples["speed_kmh"].median()) if samples["speed_kmh"].notna().any() else float("nan")
+    masts = masts.reset_index(drop=True)
+    sections = _table_sections(masts, catenary, settings)
+    if direction < 0:
+        sections = sections[::-1]
+    kinks = support_kinks(trace)
+    current = ChainageMap.identity(sections[0].table_m[0] if sections else 0.0)
+    first = True
+    mast_rows, section_rows, maps = [], [], {}
+    method = "stagger" if trace.has_stagger else "height"       # the signature the coarse search reads
+    for sec in sections:
+        t = sec.table_m
+        predicted = current.to_recorded(t)
+        covered = (trace.chainage_m[0] <= predicted.max() + settings.max_offset_m) and (
+            trace.chainage_m[-1] >= predicted.min() - settings.max_offset_m)
+        inside = np.mean((predicted >= trace.chainage_m[0]) & (predicted <= trace.chainage_m[-1]))
+        base = {"run_id": run_id, "section_id": sec.section_id, "n_table_masts": t.size}
+        if not covered or inside < 0.5:
+            section_rows.append({**base, "status": NOT_COVERED, "reason": (
+                f"run {run_id} does not cover section {sec.section_id}: its samples span "
+                f"{trace.chainage_m[0]:.1f}–{trace.chainage_m[-1]:.1f} m, the section's masts are expected at "
+                f"{predicted.min():.1f}–{predicted.max():.1f} m"), "n_matched": 0})
+            mast_rows += _unplaced(run_id, sec, TABLE_ONLY, "table")
+            continue
+        scale = current.scale
+        type_lag = {name: direction * (lag(name, speed) if not trace.has_stagger else 0.0)
+                    for name in {x for x in sec.span_type if x is not None}}
+        lag_m = float(np.mean(list(type_lag.values()))) if type_lag else 0.0
+        reach = settings.max_offset_m if first else min(settings.max_offset_m, max(3.0, 2 * settings.search_m))
+        coarse = support_line(trace, kinks, t, sec.span_type, predicted, catenary, scale=scale, lag_m=lag_m,
+                              reach_m=reach, max_scale_error=settings.max_scale_error,
+                              tolerance_m=max(settings.max_residual_m, 0.2))
+        required = max(settings.min_matched_masts, int(np.ceil(settings.min_matched_fraction * t.size)))
+        if coarse is None or coarse[1].sum() < required:
+            agree = 0 if coarse is None else int(coarse[1].sum())
+            section_rows.append({**base, "status": REFUSED, "n_matched": agree, "reason": (
+                f"section {sec.section_id}, run {run_id}: registration failed: the trace's {method} shows the "
+                f"supports of only {agree} of the {t.size} table masts at a common offset and scale (need {required}: "
+                f"min_matched_fraction {settings.min_matched_fraction:g}, min_matched_masts "
+                f"{settings.min_matched_masts}) within ±{reach:g} m of where the table puts them; a mast table of "
+                "another line, a recording of another line, or a trace without usable supports")})
+            mast_rows += _unplaced(run_id, sec, TABLE_ONLY, "table")
+            continue
+        guess = coarse[0]
+        fits, methods = [], []
+        for j in range(t.size):
+            pattern, left, right = _pattern(t, sec.span_type, j, catenary)
+            lag_j = type_lag.get(sec.span_type[j] or sec.span_type[j - 1], lag_m)
+            fit, how = _local_fit(trace, float(guess[j]), pattern, left, right, scale, lag_j, settings.search_m)
+            fits.append(fit)
+            methods.append(how)
+        found = np.array([f.found and np.isfinite(f.std_m) for f in fits])
+        position = np.array([f.position_m if ok else np.nan for f, ok in zip(fits, found)])
+        std = np.array([f.std_m if ok else np.nan for f, ok in zip(fits, found)])
+        try:
+            fitted, inlier = fit_map(t, position, std, degree=settings.drift_degree, reference_m=float(t[0]),
+                                     table_std_m=sec.table_std_m, bound_m=settings.max_residual_m)
+        except ValueError:
+            fitted, inlier = None, np.zeros(t.size, dtype=bool)
+        n_matched = int((inlier & ~sec.missing).sum())
+        residual = np.full(t.size, np.nan)
+        if fitted is not None:
+            listed = inlier & ~sec.missing
+            residual[listed] = (position[listed] - fitted.to_recorded(t[listed])) / fitted.slope(t[listed])
+        rms = float(np.sqrt(np.nanmean(residual ** 2))) if n_matched else float("nan")
+        if fitted is None or n_matched < required or rms > settings.max_residual_m:
+            why = (f"the trace confirms {n_matched} of {t.size} masts (need {required})" if n_matched < required or
+                   fitted is None else f"the confirmed masts lie {rms:.2f} m (RMS) from the fitted map, beyond "
+                   f"max_residual_m {settings.max_residual_m:g} m")
+            section_rows.append({**base, "status": REFUSED, "n_matched": n_matched, "reason": (
+                f"section {sec.section_id}, run {run_id}: registration failed: {why}")})
+            mast_rows += _unplaced(run_id, sec, TABLE_ONLY, "table")
+            continue
+        identity = _agrees_with_identity(t, position, inlier & ~sec.missing, np.array(methods), settings)
+        if identity:
+            fitted = ChainageMap.identity(float(t[0]))
+            listed = inlier & ~sec.missing
+            residual[listed] = position[listed] - t[listed]
+        rows = _place_masts(sec, fitted, inlier, position, std, residual, run_id, np.array(methods))
+        n_missing, n_extra = int(sec.missing.sum()), len(sec.extra)
+        mast_rows += rows
+        maps[sec.section_id] = fitted
+        middle = float(np.mean(t))
+        placed = [r["recorded_chainage_m"] for r in rows if np.isfinite(r["recorded_chainage_m"])]
+        section_rows.append({**base, "status": REGISTERED, "n_matched": n_matched,
+                             "reason": "" if not identity else (
+                                 "the trace agrees with the table's chainage within what it can tell: identity map"),
+                             "n_missing_from_table": n_missing, "n_extra_in_table": n_extra,
+                             "offset_m": float(fitted.to_recorded(middle) - middle),
+                             "scale": float(fitted.slope(middle)), "degree": fitted.degree, "residual_rms_m": rms,
+                             "recorded_low_m": float(min(placed)), "recorded_high_m": float(max(placed)),
+                             "reference_m": fitted.reference_m,
+                             "coefficients": " ".join(f"{c:.12g}" for c in fitted.coefficients)})
+        current = fitted
+        first = False
+        if log is not None:
+            log.info("run %s, section %s: %d of %d masts confirmed by the %s, offset %+.3f m, scale %.5f, "
+                     "residual RMS %.3f m, %d missing from the table, %d extra", run_id, sec.section_id, n_matched,
+                     t.size, method, section_rows[-1]["offset_m"], section_rows[-1]["scale"], rms, n_missing, n_extra)
+    masts_out = pd.DataFrame(mast_rows, columns=MAST_COLUMNS)
+    sections_out = pd.DataFrame(section_rows, columns=SECTION_COLUMNS)
+    for name in ("n_missing_from_table", "n_extra_in_table", "degree", "n_matched"):
+        sections_out[name] = sections_out[name].fillna(0).astype(int)
+    sections_out["reason"] = sections_out["reason"].fillna("")
+    sections_out["coefficients"] = sections_out["coefficients"].fillna("")
+    if direction < 0:                               # report in the table's order
+        order = {s.section_id: i for i, s in enumerate(sections[::-1])}
+        sections_out = sections_out.iloc[np.argsort(sections_out["section_id"].map(order).to_numpy(),
+                                                     kind="stable")].reset_index(drop=True)
+        masts_out = masts_out.iloc[np.argsort(masts_out["section_id"].map(order).to_numpy(),
+                                              kind="stable")].reset_index(drop=True)
+    return RunRegistration(run_id, direction, masts_out, sections_out, maps)
+
+
+def _agrees_with_identity(t: np.ndarray, position: np.ndarray, listed: np.ndarray, methods: np.ndarray,
+                          settings: RegistrationSettings) -> bool:
+    """Whether the section's supports are consistent with the recording's chainage as it is
+    (offset 0 and scale 1): the offset (at the section's middle) and the scale of a line through
+    the confirmed masts, with their standard errors from the residuals' scatter, the offset's
+    widened by ``height_lag_std_m`` where the height placed masts (its lag's bias), against the
+    95 % quantile of χ² with 2 degrees of freedom. Then the map is the identity: a trace cannot
+    improve on a chainage it agrees with, and a height trace would only move it by its lag's
+    error."""
+    if listed.sum() < 3:
+        return False
+    x = t[listed] - np.mean(t[listed])
+    y = position[listed] - t[listed]
+    a = np.column_stack([np.ones_like(x), x])
+    coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+    residual = y - a @ coef
+    s2 = float(residual @ residual) / max(listed.sum() - 2, 1)
+    cov = s2 * np.linalg.inv(a.T @ a)
+    if np.any(methods[listed] == "height"):
+        cov[0, 0] += settings.height_lag_std_m ** 2
+    statistic = float(coef @ np.linalg.solve(cov, coef))
+    return statistic <= 5.991
+
+
+def _unplaced(run_id: str, sec: _TableSection, status: str, method: str) -> list[dict]:
+    """Rows of a section the run could not register: the table's positions, unconfirmed."""
+    rows = [{"run_id": run_id, "section_id": sec.section_id, "mast_id": m, "span_type": st or "",
+             "status": MISSING if miss else status, "method": "span_length" if miss else method,
+             "table_chainage_m": float("nan") if miss else float(x), "recorded_chainage_m": float("nan"),
+             "chainage_m": float(x), "std_m": float("nan"), "residual_m": float("nan")}
+            for m, x, st, miss in zip(sec.mast_id, sec.table_m, sec.span_type, sec.missing)]
+    return rows + _extra_rows(run_id, sec)
+
+
+def _extra_rows(run_id: str, sec: _TableSection) -> list[dict]:
+    return [{"run_id": run_id, "section_id": sec.section_id, "mast_id": m, "span_type": "", "status": EXTRA,
+             "method": "span_length", "table_chainage_m": float(x), "recorded_chainage_m": float("nan"),
+             "chainage_m": float("nan"), "std_m": float("nan"), "residual_m": float("nan")} for m, x in sec.extra]
+
+
+def _place_masts(sec: _TableSection, fitted: ChainageMap, inlier: np.ndarray, position: np.ndarray, std: np.ndarray,
+                 residual: np.ndarray, run_id: str, methods: np.ndarray) -> list[dict]:
+    """Registered position of every mast: the trace's and the table's weighed by their errors.
+
+    A trace position's error is its fit's standard error, or, when larger, what the spread of the
+    section's residuals of that signature (stagger or height) shows beyond the table's own error
+    (the height's fits understate theirs: the droppers' random kinks bias each fit a little);
+    with fewer than 5 masts of a signature to tell, at least the table's error."""
+    t = sec.table_m
+    scale = fitted.slope(t)
+    z = fitted.to_table(np.where(inlier, position, fitted.to_recorded(t)))
+    listed = inlier & ~sec.missing
+    z_var = (std / scale) ** 2
+    for how in np.unique(methods):
+        these = listed & (methods == how)
+        if these.sum() >= 5:
+            r = residual[these]
+            spread = 1.4826 * np.median(np.abs(r - np.median(r)))
+            floor = spread ** 2 - float(np.median(sec.table_std_m[these])) ** 2
+        else:
+            floor = float(np.median(sec.table_std_m)) ** 2
+        z_var = np.where(methods == how, np.maximum(z_var, floor), z_var)
+    w_trace = np.where(inlier, 1.0 / z_var, 0.0)
+    w_table = 1.0 / sec.table_std_m ** 2
+    chain = (w_trace * np.nan_to_num(z) + w_table * t) / (w_trace + w_table)
+    chain_std = 1.0 / np.sqrt(w_trace + w_table)
+    rows = []
+    for j in range(t.size):
+        status = MISSING if sec.missing[j] else (MATCHED if inlier[j] else TABLE_ONLY)
+        rows.append({"run_id": run_id, "section_id": sec.section_id, "mast_id": sec.mast_id[j],
+                     "span_type": sec.span_type[j] or "", "status": status,
+                     "method": methods[j] if inlier[j] else ("span_length" if sec.missing[j] else "table"),
+                     "table_chainage_m": float("nan") if sec.missing[j] else float(t[j]),
+                     "recorded_chainage_m": float(fitted.to_recorded(chain[j])), "chainage_m": float(chain[j]),
+                     "std_m": float(chain_std[j]), "residual_m": float(residual[j])})
+    return rows + _extra_rows(run_id, sec)
+
+
+def _nearest_type(length: float, catenary: Catenary) -> str:
+    return min(catenary.span_types, key=lambda t: abs(catenary.span_types[t].length_m - length))
+
+
+def _two_spans(length: float, declared: str | None, catenary: Catenary, tolerance: float) -> tuple[str, str] | None:
+    """Two span types whose lengths add up to ``length`` within ``tolerance`` (the declared type first)."""
+    names = sorted(catenary.span_types, key=lambda n: (n != declared, n))
+    best = None
+    for a in names:
+        for b in names:
+            error = abs(catenary.span_types[a].length_m + catenary.span_types[b].length_m - length)
+            if error <= tolerance and (best is None or error < best[0] - 1e-9):
+                best = (error, a, b)
+    return None if best is None else (best[1], best[2])
+
+
+def unregistered_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary) -> RunRegistration:
+    """The mast table taken as it is for one run (registration switched off): every mast at its
+    table chainage with an unknown error, every map the identity."""
+    run_id = str(samples["run_id"].iloc[0])
+    direction = int(samples["direction"].iloc[0])
+    masts = masts.reset_index(drop=True)
+    rows, section_rows, maps = [], [], {}
+    for section_id, part in masts.groupby("section_id", sort=False):
+        x = part["chainage_m"].to_numpy(dtype=float)
+        for i, (mast, x_m) in enumerate(zip(part["mast_id"].astype(str), x)):
+            declared = part["span_type"].iloc[i]
+            rows.append({"run_id": run_id, "section_id": str(section_id), "mast_id": mast,
+                         "span_type": declared if isinstance(declared, str) else "", "status": TABLE_ONLY,
+                         "method": "table", "table_chainage_m": float(x_m), "recorded_chainage_m": float(x_m),
+                         "chainage_m": float(x_m), "std_m": float("nan"), "residual_m": float("nan")})
+        maps[str(section_id)] = ChainageMap.identity(float(x[0]))
+        section_rows.append({"run_id": run_id, "section_id": str(section_id), "status": UNREGISTERED, "reason": "",
+                             "n_table_masts": x.size, "n_matched": 0, "n_missing_from_table": 0,
+                             "n_extra_in_table": 0, "offset_m": 0.0, "scale": 1.0, "degree": 1,
+                             "residual_rms_m": float("nan"), "recorded_low_m": float(x[0]),
+                             "recorded_high_m": float(x[-1]), "reference_m": float(x[0]),
+                             "coefficients": f"{x[0]:.12g} 1"})
+    return RunRegistration(run_id, direction, pd.DataFrame(rows, columns=MAST_COLUMNS),
+                           pd.DataFrame(section_rows, columns=SECTION_COLUMNS), maps)
+
+
+def masts_from_trace(samples: pd.DataFrame, catenary: Catenary, settings: RegistrationSettings,
+                     lag: Callable[[str, float], float]) -> pd.DataFrame:
+    """A mast table found from one run's trace alone (no mast table given).
+
+    The supports are followed along the trace span by span: the first support of each stretch
+    of recording (a stretch ends where ``section_gap_m`` passes without samples) is where the
+    support pattern of a span type fits best within one span length of its start; each next one
+    is looked for one span length further (each span type tried, the best fit kept), within
+    ``± search_m``, until the trace ends. Each stretch is a section (``T01``, ``T02``…), its masts
+    ``T01.000``, ``T01.001``…; chainages are the run's own, rescaled by the odometer scale that
+    the spacing of the supports against the span types' lengths gives. Masts and span types
+    come out as a masts table (:func:`catenary.recording.validate_masts`' columns).
+    """
+    direction = int(samples["direction"].iloc[0])
+    trace = trace_of(samples["chainage_m"].to_numpy(), samples["height_m"].to_numpy(),
+                     samples["stagger_m"].to_numpy() if samples["stagger_m"].notna().any() else None)
+    speed = float(samples["speed_kmh"].median()) if samples["speed_kmh"].notna().any() else float("nan")
+    types = sorted(catenary.span_types, key=lambda n: catenary.span_types[n].length_m)
+    lags = {n: direction * (lag(n, speed) if not trace.has_stagger else 0.0) for n in types}
+    kink_grid, kink, _ = support_kinks(trace)
+    x = trace.chainage_m[np.isfinite(trace.height_m)]
+    breaks = np.flatnonzero(np.diff(x) > settings.section_gap_m)
+    stretches = np.split(x, breaks + 1)
+    rows = []
+    for n, stretch in enumerate(s for s in stretches if s.size and s[-1] - s[0] > min(
+            catenary.span_types[t].length_m for t in types)):
+        supports, kinds = _follow(trace, kink_grid, kink, stretch[0], stretch[-1], catenary, types, lags, settings)
+        if len(supports) < 2:
+            continue
+        rows.append({"section": n, "supports": supports, "types": kinds})
+    spacing, nominal = [], []
+    for r in rows:
+        for a, b, kind in zip(r["supports"][:-1], r["supports"][1:], r["types"]):
+            spacing.append(b - a)
+            nominal.append(catenary.span_type(kind).length_m)
+    scale = float(np.median(np.asarray(spacing) / np.asarray(nominal))) if spacing else 1.0
+    out = []
+    origin = rows[0]["supports"][0] if rows else 0.0
+    for k, r in enumerate(rows):
+        section_id = f"T{k + 1:02d}"
+        for i, x_m in enumerate(r["supports"]):
+            out.append({"mast_id": f"{section_id}.{i:03d}", "chainage_m": origin + (x_m - origin) / scale,
+                        "section_id": section_id, "span_type": r["types"][i] if i < len(r["types"]) else None})
+    return pd.DataFrame(out, columns=["mast_id", "chainage_m", "section_id", "span_type"])
+
+
+def _follow(trace, kink_grid, kink, start, end, catenary, types, lags, settings):
+    """Supports along one stretch of trace (see :func:`masts_from_trace`)."""
+    longest = max(catenary.span_types[t].length_m for t in types)
+    # first support: the best comb score of any span type within one span length of the start
+    offsets = np.arange(start, start + longest, _COARSE_STEP_M)
+    best = (-np.inf, None, None)
+    for name in types:
+        st = catenary.span_type(name)
+        features = (np.zeros(1) if trace.has_stagger else st.dropper_positions_m + lags[name])
+        values = np.interp(offsets[:, None] + features[None, :], kink_grid, kink, left=np.nan, right=np.nan)
+        score = np.nanmean(np.abs(values) if trace.has_stagger else values, axis=1)
+        k = int(np.nanargmax(score))
+        if score[k] > best[0]:
+            best = (score[k], offsets[k], name)
+    if best[1] is None:
+        return [], []
+    supports, kinds = [float(best[1])], []
+    while True:
+        here = supports[-1]
+        options = []
+        for name in types:
+            st = catenary.span_type(name)
+            guess = here + st.length_m
+            if guess > end + 1.0:
+                continue
+            half = 0.5 * st.length_m
+            offsets_m = np.r_[0.0, st.dropper_positions_m - st.length_m]
+            fit, _ = _local_fit(trace, guess, offsets_m, half, 1.0 if guess + 1.0 > end else half, 1.0,
+                                lags[name], settings.search_m)
+            if fit.found and np.isfinite(fit.std_m):
+                options.append((-fit.std_m, fit.position_m, name))
+        if not options:
+            break
+        _, position, name = max(options)
+        supports.append(float(position))
+        kinds.append(name)
+    return supports, kinds

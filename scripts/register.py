@@ -1,0 +1,40 @@
+"""Rule register: register the mast table onto every run's trace (or find the masts from it)."""
+
+import pandas as pd
+
+from catenary.config import load_catenary
+from catenary.correction import CorrectionSettings
+from catenary.logs import rule_logger
+from catenary.pantograph import load_pantographs
+from catenary.parquet import read_table
+from catenary.recording import run_samples, validate_masts
+from catenary.registration import RegistrationSettings, masts_from_trace, register_run, unregistered_run
+from catenary.registration.lag import lag_function
+from catenary.registration.outputs import registration_figure, write_registration
+
+log = rule_logger("register", snakemake.log[0])
+catenary = load_catenary(snakemake.input.catenary)
+settings = RegistrationSettings.from_mapping(snakemake.params.registration)
+correction = CorrectionSettings.from_mapping(snakemake.params.correction)
+pantograph = load_pantographs(snakemake.input.pantographs)[correction.pantograph].with_static_force(correction.force_n)
+lag = lag_function(catenary, pantograph, mode=correction.mode, time_step_s=correction.time_step_s,
+                   default_speed_kmh=correction.speed_kmh)
+recording = read_table(snakemake.input.recording)
+masts = read_table(snakemake.input.masts)
+run_ids = list(dict.fromkeys(recording["run_id"]))
+if len(masts) == 0:
+    masts = validate_masts(masts_from_trace(run_samples(recording, run_ids[0]), catenary, settings, lag),
+                           source=f"masts found along run {run_ids[0]}")
+    log.info("no mast table: %d masts in %d sections found along run %s", len(masts),
+             masts["section_id"].nunique(), run_ids[0])
+masts.to_csv(snakemake.output.table, index=False, float_format="%.4f")
+runs = []
+for run_id in run_ids:
+    samples = run_samples(recording, run_id)
+    run = (register_run(samples, masts, catenary, settings, lag, log=log) if settings.enabled
+           else unregistered_run(samples, masts, catenary))
+    for row in run.sections[run.sections["reason"] != ""].itertuples():
+        log.warning("%s", row.reason)
+    runs.append(run)
+write_registration(runs, snakemake.output.masts, snakemake.output.sections)
+registration_figure(pd.concat([r.masts for r in runs], ignore_index=True), snakemake.output.figure)
