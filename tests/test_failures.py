@@ -23,9 +23,15 @@ from .conftest import ROOT
 EXAMPLE = ROOT / "data" / "example"
 
 
-def _snakemake(tmp_path, recording, masts, target: str, extra: str = "") -> subprocess.CompletedProcess:
+#: config/example.yaml's settings for the hand-made example (a table in the recording's own
+#: chainage, a trace without dropper kinks: no registration, no height check of the cuts).
+EXAMPLE_SETTINGS = "registration:\n  enabled: false\nprojection:\n  check_cuts: false\n"
+
+
+def _snakemake(tmp_path, recording, masts, target: str, extra: str = EXAMPLE_SETTINGS) -> subprocess.CompletedProcess:
     """Run the workflow on ``recording`` and ``masts`` into tmp_path/results up to ``target`` (a
-    path under that folder), with make test's small settings."""
+    path under that folder), with make test's small settings and ``extra`` (default: the
+    example's own settings)."""
     results = tmp_path / "results"
     own = tmp_path / "own.yaml"
     own.write_text(f"recording: {recording}\nmasts: {masts}\nresults: {results}\nspan_types: [N2, N3]\n{extra}")
