@@ -169,7 +169,8 @@ def test_a_run_killed_mid_job_is_resumed_by_the_next_run(tmp_path):
         (tmp_path / name).symlink_to(ROOT / name)
     results = tmp_path / "results"
     own = tmp_path / "own.yaml"
-    own.write_text(f"recording: {EXAMPLE / 'recording.csv'}\nmasts: {EXAMPLE / 'masts.csv'}\nresults: {results}\n")
+    own.write_text(f"recording: {EXAMPLE / 'recording.csv'}\nmasts: {EXAMPLE / 'masts.csv'}\nresults: {results}\n"
+                   + EXAMPLE_SETTINGS)
     binary = ROOT / ".venv" / "bin" / "snakemake"
     command = [str(binary) if binary.exists() else "snakemake", "--cores", "2", "--configfile", "config/test.yaml",
                str(own)]
