@@ -13,15 +13,13 @@ from catenary.parquet import read_table, settings_hash
 from catenary.projection import ProjectionSettings, project, write_projection
 from catenary.recording import read_masts, runs_table
 from catenary.registration import RegistrationSettings
-from catenary.registration.lag import lag_function
+from catenary.registration.lag import measuring_lag
 from catenary.registration.outputs import read_registration
 
 log = rule_logger("project", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
 correction = CorrectionSettings.from_mapping(snakemake.params.correction)
-pantograph = load_pantographs(snakemake.input.pantographs)[correction.pantograph].with_static_force(correction.force_n)
-lag = lag_function(catenary, pantograph, mode=correction.mode, time_step_s=correction.time_step_s,
-                   default_speed_kmh=correction.speed_kmh)
+lag = measuring_lag(catenary, load_pantographs(snakemake.input.pantographs), correction)
 recording = read_table(snakemake.input.recording)
 masts = read_masts(snakemake.input.table)
 registration = None

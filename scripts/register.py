@@ -9,16 +9,14 @@ from catenary.pantograph import load_pantographs
 from catenary.parquet import read_table
 from catenary.recording import run_samples, validate_masts
 from catenary.registration import RegistrationSettings, masts_from_trace, register_run, unregistered_run
-from catenary.registration.lag import lag_function
+from catenary.registration.lag import measuring_lag
 from catenary.registration.outputs import registration_figure, write_registration
 
 log = rule_logger("register", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
 settings = RegistrationSettings.from_mapping(snakemake.params.registration)
 correction = CorrectionSettings.from_mapping(snakemake.params.correction)
-pantograph = load_pantographs(snakemake.input.pantographs)[correction.pantograph].with_static_force(correction.force_n)
-lag = lag_function(catenary, pantograph, mode=correction.mode, time_step_s=correction.time_step_s,
-                   default_speed_kmh=correction.speed_kmh)
+lag = measuring_lag(catenary, load_pantographs(snakemake.input.pantographs), correction)
 recording = read_table(snakemake.input.recording)
 masts = read_table(snakemake.input.masts)
 run_ids = list(dict.fromkeys(recording["run_id"]))

@@ -14,13 +14,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..config import Catenary, SpanType
+from ..correction import CorrectionSettings
 from ..dropper_table import nominal_dropper_lengths
 from ..measuring import measuring_pass
 from ..pantograph import Pantograph
 from ..section import uniform_section
 from .supports import Trace, align_pattern
 
-__all__ = ["height_lag_m", "lag_function"]
+__all__ = ["height_lag_m", "lag_function", "measuring_lag"]
 
 #: Spans of the nominal section the lag is measured on (the central ones are evaluated).
 _N_SPANS = 5
@@ -80,3 +81,11 @@ def lag_function(catenary: Catenary, pantograph: Pantograph, *, mode: str, time_
         return cache[key]
 
     return lag
+
+
+def measuring_lag(catenary: Catenary, pantographs: dict[str, Pantograph], correction: CorrectionSettings):
+    """:func:`lag_function` of the correction's measuring pass: its pantograph at its declared
+    force, its mode, time step and default speed (what the rules register and project with)."""
+    pantograph = pantographs[correction.pantograph].with_static_force(correction.force_n)
+    return lag_function(catenary, pantograph, mode=correction.mode, time_step_s=correction.time_step_s,
+                        default_speed_kmh=correction.speed_kmh)

@@ -5,15 +5,15 @@ starting from the map of the section before (the odometer's error grows with the
 travelled):
 
 1. **Coarse.** Each table mast is looked for within ``± max_offset_m`` of where the map so far
-   puts it: the stagger's reversal (``|kink|`` of the stagger), or, in the height alone, in two
-   scales. First the sag: the wire is highest at its supports, so the height's kink over
-   ±8 m windows peaks at each mast (a broad peak, good to a metre or two, with no alias: the
-   next mast is a span away). Then, within ±2.25 m of the line the masts' sag peaks agree
-   on (less than half the shortest spacing of a mast and its first dropper, so that the comb
-   cannot slip by one dropper), the comb of the two adjacent spans' droppers (the sum of the
-   height's ±1 m kink signal at the droppers' design places). At each scale the offsets of all
-   masts are reconciled by the line (offset and scale within ``max_scale_error``) that the most
-   masts agree with, so that one mast matched in the wrong place does not pull the map.
+   puts it: the stagger's reversal (``|kink|`` of the stagger), or, in the height alone, the
+   comb of the two adjacent spans' droppers (the mean of the height's ±1 m kink signal at the
+   droppers' design places) plus the sag's broad peak at the mast (the wire is highest at its
+   supports: the height's kink over ±8 m windows), added with two weights, 0.1 and 1
+   (``_SAG_WEIGHTS``): a little breaks the ties of a comb that slips by one dropper spacing,
+   as much carries the search on a trace whose droppers' kinks are fainter than the model's.
+   The offsets of all masts are reconciled by the line (offset and scale within
+   ``max_scale_error``) that the most masts agree with, so that one mast matched in the wrong
+   place does not pull the map; of the two weightings, the one more masts agree with is kept.
 2. **Fine.** Around that line each mast's support is fitted within ``± search_m``
    (:mod:`.supports`), with its standard error.
 3. **Map.** The map from table to recorded chainage is fitted robustly to the supports found
