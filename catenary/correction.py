@@ -130,6 +130,8 @@ class RunCorrection:
     slack_droppers : numpy.ndarray
         Droppers per span that the final model needs slack (the measured CW there lies higher
         than the neighbours let a taut dropper hold it).
+    section : Section or None
+        The final model (None when the run failed): what the model-error budget perturbs.
     """
 
     span_id: np.ndarray
@@ -140,6 +142,7 @@ class RunCorrection:
     dropper_lengths_m: np.ndarray | None = None
     failure: str = ""
     slack_droppers: np.ndarray | None = None
+    section: Section | None = None
 
 
 def fill_unmeasured(rows: pd.DataFrame, report: pd.DataFrame, catenary: Catenary) -> pd.DataFrame:
@@ -331,7 +334,7 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
         static_w[k, :n_d[k]] = w[section.dropper_span == k]
     slack = np.bincount(section.dropper_span, inverse.slack, minlength=len(rows)).astype(int)
     return RunCorrection(span_ids, static_w, history[-1][1], _passes(history, settings.mode), history,
-                         section.dropper_lengths_m, slack_droppers=slack)
+                         section.dropper_lengths_m, slack_droppers=slack, section=section)
 
 
 def _passes_to_converge(history: list[tuple[str, np.ndarray]], settings: CorrectionSettings,
@@ -386,8 +389,8 @@ CORRECTED_BASE_COLUMNS = ["span_id", "run_id", "direction", "speed_kmh", "force_
 
 
 def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograph,
-                  settings: CorrectionSettings, log=None,
-                  report: pd.DataFrame | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+                  settings: CorrectionSettings, log=None, report: pd.DataFrame | None = None,
+                  after_run=None) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Correct every run of consecutive spans in ``spans`` (module docstring).
 
     Parameters
@@ -403,6 +406,10 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
     report : pandas.DataFrame, optional
         The projection's span report: the spans it rejected between and around measured ones stay
         in the model, unmeasured (:func:`fill_unmeasured`).
+    after_run : callable, optional
+        Called after each run of spans as ``after_run(rows, result, pantograph, speed_m_s,
+        direction, speed_profile)`` with the run's :class:`RunCorrection` and measuring conditions
+        (the model-error budget perturbs its converged model).
 
     Returns
     -------
@@ -424,6 +431,8 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
         speed, force, direction, profile = measuring_conditions(rows, settings)
         result = correct_run(rows, catenary, pantograph.with_static_force(force), speed, settings, log=log,
                              direction=direction, speed_profile=profile)
+        if after_run is not None:
+            after_run(rows, result, pantograph.with_static_force(force), speed, direction, profile)
         converged = np.isfinite(result.gap_norm_m) & (result.gap_norm_m < settings.tolerance_m)
         passes = _passes_to_converge(result.history, settings, len(rows))
         measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)

@@ -16,24 +16,49 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["correction_round_trip", "identification_round_trip", "match_spans", "projection_round_trip",
-           "realized_truth", "registration_round_trip"]
+           "realized_truth", "registration_round_trip", "repeatability_round_trip"]
 
 #: Largest distance between a span's registered masts and the true ones for the spans to be the
 #: same [m] (a registration places masts to decimetres; spans are tens of metres).
 MATCH_TOLERANCE_M = 3.0
 
 
-def match_spans(spans: pd.DataFrame, truth: pd.DataFrame, tolerance_m: float = MATCH_TOLERANCE_M) -> np.ndarray:
+def match_spans(spans: pd.DataFrame, truth: pd.DataFrame, tolerance_m: float = MATCH_TOLERANCE_M,
+                masts: pd.DataFrame | None = None, truth_runs: pd.DataFrame | None = None) -> np.ndarray:
     """The truth's ``span_id`` of each row of ``spans`` whose two masts lie within ``tolerance_m``
-    of a true span's (``start_chainage_m``, ``end_chainage_m``), else "" (object array)."""
-    a = truth["start_chainage_m"].to_numpy(dtype=float)
-    b = truth["end_chainage_m"].to_numpy(dtype=float)
-    ids = truth["span_id"].to_numpy(dtype=object)
+    of a true span's, else "" (object array).
+
+    By default the spans' (``start_chainage_m``, ``end_chainage_m``) are compared with the truth's:
+    the mast table's frame, which is the line's true chainage whenever there is a table. Given the
+    registration's ``masts`` (``registration/masts.csv``) and the campaign's ``truth_runs``, the
+    comparison is made in each run's recorded chainage instead (the masts' ``recorded_chainage_m``
+    against the truth's ``recorded_start_chainage_m`` / ``recorded_end_chainage_m`` of the same
+    run): frame-free, so that masts found from the trace without a table, whose chainage frame is
+    the recording's and not the line's, are matched too.
+    """
+    if masts is not None and truth_runs is not None:
+        recorded = masts.set_index(["run_id", "mast_id"])["recorded_chainage_m"]
+        keys = spans["run_id"].astype(str).to_numpy()
+        x0s = recorded.reindex(list(zip(keys, spans["left_mast_id"].astype(str)))).to_numpy(dtype=float)
+        x1s = recorded.reindex(list(zip(keys, spans["right_mast_id"].astype(str)))).to_numpy(dtype=float)
+        candidates = {run: (part["recorded_start_chainage_m"].to_numpy(dtype=float),
+                            part["recorded_end_chainage_m"].to_numpy(dtype=float),
+                            part["span_id"].to_numpy(dtype=object))
+                      for run, part in truth_runs.groupby("run_id", sort=False)}
+    else:
+        keys = np.full(len(spans), "", dtype=object)
+        x0s = spans["start_chainage_m"].to_numpy(dtype=float)
+        x1s = spans["end_chainage_m"].to_numpy(dtype=float)
+        candidates = {"": (truth["start_chainage_m"].to_numpy(dtype=float),
+                           truth["end_chainage_m"].to_numpy(dtype=float), truth["span_id"].to_numpy(dtype=object))}
     out = np.full(len(spans), "", dtype=object)
-    for k, (x0, x1) in enumerate(zip(spans["start_chainage_m"].to_numpy(dtype=float),
-                                     spans["end_chainage_m"].to_numpy(dtype=float))):
-        d = np.maximum(np.abs(a - x0), np.abs(b - x1))
-        j = int(np.argmin(d)) if d.size else -1
+    for k, (key, x0, x1) in enumerate(zip(keys, x0s, x1s)):
+        if key not in candidates:
+            continue
+        a, b, ids = candidates[key]
+        # a reverse run records its spans from the far mast: compare the span's ends as a set
+        d = np.minimum(np.maximum(np.abs(a - x0), np.abs(b - x1)), np.maximum(np.abs(a - x1), np.abs(b - x0)))
+        j = int(np.nanargmin(d)) if np.isfinite(d).any() else -1
         if j >= 0 and d[j] <= tolerance_m:
             out[k] = ids[j]
     return out
@@ -45,10 +70,12 @@ def _w(table: pd.DataFrame, prefix: str = "") -> np.ndarray:
     return table[[f"{prefix}w{i}_m" for i in range(1, n + 1)]].to_numpy(dtype=float)
 
 
-def _with_truth(rows: pd.DataFrame, truth: pd.DataFrame, truth_runs: pd.DataFrame | None = None) -> pd.DataFrame:
-    """``rows`` (spans of the pipeline, one per span and run) matched to the true spans by position,
-    with the truth's columns (and, with ``truth_runs``, the dynamic W of the same run)."""
-    rows = rows.assign(truth_span_id=match_spans(rows, truth))
+def _with_truth(rows: pd.DataFrame, truth: pd.DataFrame, truth_runs: pd.DataFrame | None = None,
+                masts: pd.DataFrame | None = None) -> pd.DataFrame:
+    """``rows`` (spans of the pipeline, one per span and run) matched to the true spans by position
+    (in each run's recorded chainage given ``masts``: :func:`match_spans`), with the truth's columns
+    (and, with ``truth_runs``, the dynamic W of the same run)."""
+    rows = rows.assign(truth_span_id=match_spans(rows, truth, masts=masts, truth_runs=truth_runs))
     rows = rows[rows["truth_span_id"] != ""]
     merged = rows.merge(truth.drop(columns=[c for c in truth.columns if c.startswith("dynamic_w")] if truth_runs
                                    is not None else []).rename(columns={"span_id": "truth_span_id"}),
@@ -59,11 +86,13 @@ def _with_truth(rows: pd.DataFrame, truth: pd.DataFrame, truth_runs: pd.DataFram
     return merged
 
 
-def projection_round_trip(spans: pd.DataFrame, truth: pd.DataFrame, truth_runs: pd.DataFrame | None = None
-                          ) -> dict[str, float]:
+def projection_round_trip(spans: pd.DataFrame, truth: pd.DataFrame, truth_runs: pd.DataFrame | None = None,
+                          masts: pd.DataFrame | None = None) -> dict[str, float]:
     """Compare projected W with the truth's dynamic (of the same run) and static W of the same
-    spans [m]; ``n_unmatched``: projected spans that are no true span (cut in the wrong place)."""
-    merged = _with_truth(spans, truth, truth_runs)
+    spans [m]; ``n_unmatched``: projected spans that are no true span (cut in the wrong place).
+    Given the registration's ``masts``, spans are matched in each run's recorded chainage
+    (:func:`match_spans`)."""
+    merged = _with_truth(spans, truth, truth_runs, masts)
     w, dyn, sta = _w(merged), _w(merged, "dynamic_"), _w(merged, "static_")
     return {
         "n_spans": float(len(merged)),
@@ -106,8 +135,8 @@ def correction_round_trip(corrected: pd.DataFrame, spans: pd.DataFrame, truth: p
     }
 
 
-def registration_round_trip(masts: pd.DataFrame, masts_truth: pd.DataFrame, truth: pd.DataFrame,
-                            truth_runs: pd.DataFrame, tolerance_m: float = 2.0) -> pd.DataFrame:
+def registration_round_trip(masts: pd.DataFrame, masts_truth: pd.DataFrame, truth_runs: pd.DataFrame,
+                            tolerance_m: float = 2.0) -> pd.DataFrame:
     """The registered masts of each run against the true masts.
 
     Parameters
@@ -116,8 +145,8 @@ def registration_round_trip(masts: pd.DataFrame, masts_truth: pd.DataFrame, trut
         ``registration/masts.csv``.
     masts_truth : pandas.DataFrame
         The campaign's ``masts_truth.csv`` (true chainage and what the table did to each mast).
-    truth, truth_runs : pandas.DataFrame
-        The campaign's truth per span and per span and run (recorded chainages of the masts).
+    truth_runs : pandas.DataFrame
+        The campaign's truth per span and run (recorded chainages of the masts).
 
     Returns
     -------
@@ -126,31 +155,31 @@ def registration_round_trip(masts: pd.DataFrame, masts_truth: pd.DataFrame, trut
         ``tolerance_m`` of a true mast), ``n_missing_planted`` / ``n_missing_found`` (masts left out
         of the table / inserted by the registration at a true mast), ``n_extra_planted`` /
         ``n_extra_dropped``, ``rms_error_m`` and ``max_error_m`` (placed minus true position in
-        the run's recorded chainage, over the masts found), and the same over the masts placed
+        the run's recorded chainage, over the masts found; masts are matched in that chainage, so
+        masts found from the trace without a table are checked too), and the same over the masts placed
         by the trace (``matched`` and inserted: ``rms_error_trace_m``) and by the table alone.
     """
     true = masts_truth[masts_truth["status"] != "extra_in_table"]
-    x_true = true["chainage_m"].to_numpy(dtype=float)
     rows = []
     for run_id, part in masts.groupby("run_id", sort=False):
-        runs = truth_runs[truth_runs["run_id"] == run_id].merge(truth[["span_id", "start_chainage_m", "end_chainage_m"]],
-                                                                on="span_id")
-        recorded = dict(zip(np.round(runs["start_chainage_m"], 3), runs["recorded_start_chainage_m"]))
-        recorded.update(zip(np.round(runs["end_chainage_m"], 3), runs["recorded_end_chainage_m"]))
+        runs = truth_runs[truth_runs["run_id"] == run_id]
+        # every true mast's position in this run's recorded chainage (the frame the trace gives,
+        # whatever frame the table or its absence gives the registered chainage_m)
+        x_recorded = np.unique(np.concatenate([runs["recorded_start_chainage_m"].to_numpy(dtype=float),
+                                               runs["recorded_end_chainage_m"].to_numpy(dtype=float)]))
         placed = part[part["status"] != "extra_in_table"]
         errors, trace, table = [], [], []
         n_found = n_inserted = 0
         for r in placed.itertuples():
-            d = np.abs(x_true - r.chainage_m)
+            if not np.isfinite(r.recorded_chainage_m):
+                continue
+            d = np.abs(x_recorded - r.recorded_chainage_m)
             j = int(np.argmin(d))
             if d[j] > tolerance_m:
                 continue
             n_found += 1
             n_inserted += r.status == "missing_from_table"
-            true_recorded = recorded.get(round(float(x_true[j]), 3))
-            if true_recorded is None or not np.isfinite(r.recorded_chainage_m):
-                continue
-            e = float(r.recorded_chainage_m - true_recorded)
+            e = float(r.recorded_chainage_m - x_recorded[j])
             errors.append(e)
             (table if r.method == "table" else trace).append(e)
         rms = (lambda v: float(np.sqrt(np.mean(np.square(v)))) if v else float("nan"))
@@ -163,6 +192,55 @@ def registration_round_trip(masts: pd.DataFrame, masts_truth: pd.DataFrame, trut
                      "rms_error_m": rms(errors), "max_error_m": float(np.max(np.abs(errors))) if errors else float("nan"),
                      "rms_error_trace_m": rms(trace), "rms_error_table_m": rms(table)})
     return pd.DataFrame(rows)
+
+
+def _pooled_within_rms(error: np.ndarray, groups: np.ndarray) -> tuple[float, int]:
+    """RMS per dropper of the pooled within-group scatter of ``error`` (rows grouped by
+    ``groups``: Σ (e − ē)² / Σ (k − 1), averaged over the columns, square-rooted) and its
+    degrees of freedom Σ (k − 1)."""
+    frame = pd.DataFrame(error).assign(group=groups)
+    centred = error - frame.groupby("group").transform("mean").to_numpy()
+    dof = int(len(frame) - frame["group"].nunique())
+    return (float(np.sqrt(np.sum(centred ** 2) / (dof * error.shape[1]))) if dof > 0 else float("nan")), dof
+
+
+def repeatability_round_trip(corrected: pd.DataFrame, spans: pd.DataFrame, truth: pd.DataFrame,
+                             truth_runs: pd.DataFrame, masts: pd.DataFrame | None = None) -> dict[str, float]:
+    """What the run-to-run scatter of the corrected W is made of, measured against the truth.
+
+    Each converged run's error on a span, corrected W minus the truth's static W, splits into the
+    sensor's part as it reaches W (projected W minus the same run's true dynamic W: noise,
+    quantisation, spikes, the projection's local fits) and the correction's part (the rest: what
+    the dropper-only correction leaves, which depends on the direction of travel and the speed).
+    Pooled over the spans measured by several runs, the within-span scatter of each part is what
+    the repeatability (:mod:`catenary.repeatability`) estimates in total [m, RMS per dropper].
+
+    Returns
+    -------
+    dict
+        ``n_spans`` (true spans with ≥ 2 converged runs), ``dof`` (Σ (k − 1)),
+        ``within_total_m`` (the truth-side value of what the repeatability estimates),
+        ``within_sensor_m`` (the planted noise's share: the reference for the repeatability of
+        runs that the correction treats alike) and ``within_correction_m``.
+    """
+    measured = _with_truth(spans, truth, truth_runs, masts)        # corrected spans keep the projected span's ids
+    n = _w(measured).shape[1]
+    fixed = corrected.loc[corrected["converged"], ["span_id", "run_id"] + [f"w{i}_m" for i in range(1, n + 1)]]
+    both = fixed.merge(measured.rename(columns={f"w{i}_m": f"w{i}_m_projected" for i in range(1, n + 1)}),
+                       on=["span_id", "run_id"])
+    several = both.groupby("truth_span_id")["run_id"].transform("nunique") >= 2
+    both = both[several]
+    if both.empty:
+        return {"n_spans": 0.0, "dof": 0.0, "within_total_m": float("nan"), "within_sensor_m": float("nan"),
+                "within_correction_m": float("nan")}
+    projected = both[[f"w{i}_m_projected" for i in range(1, n + 1)]].to_numpy(dtype=float)
+    total = _w(both) - _w(both, "static_")
+    sensor = projected - _w(both, "dynamic_")
+    groups = both["truth_span_id"].to_numpy()
+    within_total, dof = _pooled_within_rms(total, groups)
+    return {"n_spans": float(both["truth_span_id"].nunique()), "dof": float(dof), "within_total_m": within_total,
+            "within_sensor_m": _pooled_within_rms(sensor, groups)[0],
+            "within_correction_m": _pooled_within_rms(total - sensor, groups)[0]}
 
 
 def realized_truth(truth: pd.DataFrame, span_ids) -> dict[str, tuple[float, float]]:

@@ -7,6 +7,8 @@ import pandas as pd
 from catenary.config import load_catenary
 from catenary.correction import CorrectionSettings, correct_spans, corrected_schema
 from catenary.logs import rule_logger
+from catenary.model_error.correction import run_shifts
+from catenary.model_error.sources import ModelErrorSettings
 from catenary.pantograph import load_pantographs
 from catenary.parquet import read_table, settings_hash, write_table
 
@@ -25,7 +27,25 @@ log.info("section %s: %d spans, %s pass, tolerance %.2f mm", section_id, len(spa
 report = pd.read_csv(snakemake.input.report, dtype={"span_id": str, "run_id": str, "section_id": str,
                                                     "span_type": str}, keep_default_na=False,
                      na_values={c: [""] for c in ("start_chainage_m", "end_chainage_m", "length_m")})
-corrected, convergence = correct_spans(spans, catenary, pantograph, settings, log=log, report=report)
+budget = ModelErrorSettings.from_mapping(snakemake.params.model_error)
+n_max = max(catenary.span_type(t).n_droppers for t in snakemake.params.span_types)
+shifts = []
+
+
+def measure_budget(rows, result, run_pantograph, speed_m_s, direction, profile):
+    """The model-error budget's shift of this run's corrected W, one row per span and source."""
+    shifts.append(run_shifts(rows, result, catenary, run_pantograph, speed_m_s, budget.sources, mode=settings.mode,
+                             time_step_s=settings.time_step_s, direction=direction, speed_profile=profile,
+                             n_max=n_max))
+    log.info("section %s, run %s: model-error budget measured for %d sources", section_id, rows["run_id"].iloc[0],
+             len(budget.sources))
+
+
+corrected, convergence = correct_spans(spans, catenary, pantograph, settings, log=log, report=report,
+                                       after_run=measure_budget if budget.enabled else None)
+columns = ["run_id", "section_id", "span_type", "span_id", "source"] + [f"w{i + 1}_m" for i in range(n_max)] + ["status"]
+(pd.concat(shifts, ignore_index=True) if shifts else pd.DataFrame(columns=columns)).to_parquet(
+    snakemake.output.model_error, index=False)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
             config_hash=settings_hash(snakemake.config), kind="corrected_section")
 convergence.to_csv(snakemake.output.convergence, index=False)

@@ -7,6 +7,7 @@ import pandas as pd
 from catenary.config import load_catenary
 from catenary.correction import corrected_of_type, corrected_schema, correction_summary
 from catenary.logs import rule_logger
+from catenary.model_error.budget import w_budget
 from catenary.parquet import read_table, settings_hash, write_table
 
 log = rule_logger("correction", snakemake.log[0])
@@ -24,3 +25,15 @@ summary.to_csv(snakemake.output.summary, index=False)
 for row in summary.itertuples():
     log.info("%s: %d spans, %d converged, %.1f %% within 3 passes, median passes %.0f",
              row.span_type, row.n_spans, row.n_converged, row.converged_within_3_percent, row.median_iterations)
+shifts = pd.concat([pd.read_parquet(p) for p in snakemake.input.model_error], ignore_index=True)
+shifts.to_parquet(snakemake.output.model_error, index=False)
+spans = pd.concat([read_table(p).assign(span_type=t) for t, p in zip(snakemake.params.span_types, snakemake.input.spans)],
+                  ignore_index=True)
+if "run_id" not in spans:
+    spans["run_id"] = "run"
+budget = w_budget(shifts, corrected, spans) if len(shifts) else pd.DataFrame()
+budget.to_csv(snakemake.output.budget, index=False, float_format="%.6g")
+for row in budget.itertuples():
+    log.info("%s dropper %d: correction %.3f mm, model-error systematic %.3f mm per σ (ratio %.1f; dominant %s)",
+             row.span_type, row.dropper, 1e3 * row.correction_mean_m, 1e3 * row.systematic_m,
+             row.correction_over_systematic, row.dominant_source)

@@ -9,7 +9,7 @@ from catenary.truth_checks import registration_round_trip
 log = rule_logger("registration_check", snakemake.log[0])
 masts = pd.read_csv(snakemake.input.masts, dtype={"run_id": str, "section_id": str, "mast_id": str})
 table = registration_round_trip(masts, pd.read_csv(snakemake.input.masts_truth, dtype={"mast_id": str}),
-                                read_table(snakemake.input.truth), read_table(snakemake.input.truth_runs))
+                                read_table(snakemake.input.truth_runs))
 table.to_csv(snakemake.output.summary, index=False, float_format="%.6g")
 for row in table.itertuples():
     log.info("run %s: %d of %d true masts found, %d of %d missing inserted, %d of %d extra dropped; position "

@@ -3,6 +3,7 @@
 import copy
 
 import numpy as np
+import pandas as pd
 import pytest
 import yaml
 
@@ -193,3 +194,58 @@ def test_truth_static_w_gives_back_the_truth_dropper_lengths(raw, catenary):
     guess = section.with_dropper_lengths(np.full(27, 1.388))
     lengths = dropper_lengths_for_cw_heights(guess, catenary, heights).dropper_lengths_m
     np.testing.assert_allclose(lengths, truth.filter(regex=r"^dropper_\d+_length_m$").to_numpy().ravel(), atol=1e-9)
+
+
+def test_spans_found_without_a_table_match_the_truth_in_the_recorded_chainage():
+    # No mast table: the masts' chainage frame is the recording's, offset 7 m and scaled 0.3 %
+    # from the line's. Matching by chainage finds nothing; by each run's recorded chainage (the
+    # masts' recorded_chainage_m against the truth's recorded ends) every span, a reverse run too.
+    from catenary.truth_checks import match_spans
+
+    true_x = np.array([0.0, 58.5, 117.0, 175.5])
+    truth = pd.DataFrame({"span_id": ["A", "B", "C"], "start_chainage_m": true_x[:-1], "end_chainage_m": true_x[1:]})
+    recorded = {"F": 7.0 + 1.003 * true_x, "R": 190.0 - 1.003 * true_x}      # forward and reverse runs
+    truth_runs = pd.concat([pd.DataFrame({"span_id": truth["span_id"], "run_id": run,
+                                          "recorded_start_chainage_m": x[:-1], "recorded_end_chainage_m": x[1:]})
+                            for run, x in recorded.items()], ignore_index=True)
+    found = recorded["F"] + np.array([0.05, -0.1, 0.0, 0.2])                  # masts found to decimetres
+    masts = pd.concat([pd.DataFrame({"run_id": run, "mast_id": [f"T{k}" for k in range(4)],
+                                     "recorded_chainage_m": x}) for run, x in (("F", found),
+                                                                                ("R", recorded["R"][::-1]))])
+    spans = pd.DataFrame({"run_id": ["F", "F", "F", "R"], "left_mast_id": ["T0", "T1", "T2", "T0"],
+                          "right_mast_id": ["T1", "T2", "T3", "T1"],
+                          "start_chainage_m": found[:3].tolist() + [0.0], "end_chainage_m": found[1:].tolist() + [1.0]})
+    assert match_spans(spans, truth).tolist() == ["", "", "", ""]
+    # the reverse run's masts T0, T1 are listed from the far end: the truth's span C
+    assert match_spans(spans, truth, masts=masts, truth_runs=truth_runs).tolist() == ["A", "B", "C", "C"]
+
+
+@pytest.mark.parametrize("same_direction", [True, False])
+def test_repeatability_round_trip_splits_the_runs_scatter_into_sensor_and_correction(same_direction):
+    # Two runs over three spans. Run 1's projected W is the true dynamic W + a, run 2's − a; the
+    # correction leaves + b on both (same direction) or + b and − b: within-span scatter of two
+    # runs differing by d is |d|/√2, so sensor a√2, correction 0 or b√2, total (a or a + b)√2.
+    from catenary.truth_checks import repeatability_round_trip
+
+    a, b, n = 0.4e-3, 0.3e-3, 9
+    x = np.array([0.0, 58.5, 117.0, 175.5])
+    ids = ["A", "B", "C"]
+    rng = np.random.default_rng(7)
+    static = 0.02 + 0.01 * rng.random((3, n))
+    dynamic = {"R1": static - 0.004, "R2": static - 0.005}
+    w = [f"w{i}_m" for i in range(1, n + 1)]
+    truth = pd.DataFrame(static, columns=[f"static_{c}" for c in w]).assign(
+        span_id=ids, start_chainage_m=x[:-1], end_chainage_m=x[1:])
+    truth_runs = pd.concat([pd.DataFrame(d, columns=[f"dynamic_{c}" for c in w]).assign(span_id=ids, run_id=run)
+                            for run, d in dynamic.items()], ignore_index=True)
+    sensor = {"R1": a, "R2": -a}
+    left = {"R1": b, "R2": b if same_direction else -b}
+    spans = pd.concat([pd.DataFrame(dynamic[run] + sensor[run], columns=w).assign(
+        span_id=ids, run_id=run, start_chainage_m=x[:-1], end_chainage_m=x[1:]) for run in dynamic], ignore_index=True)
+    corrected = pd.concat([pd.DataFrame(static + sensor[run] + left[run], columns=w).assign(
+        span_id=ids, run_id=run, converged=True) for run in dynamic], ignore_index=True)
+    figures = repeatability_round_trip(corrected, spans, truth, truth_runs)
+    assert figures["n_spans"] == 3 and figures["dof"] == 3
+    assert figures["within_sensor_m"] == pytest.approx(a * np.sqrt(2), rel=1e-9)
+    assert figures["within_correction_m"] == pytest.approx(0.0 if same_direction else b * np.sqrt(2), abs=1e-12)
+    assert figures["within_total_m"] == pytest.approx((a if same_direction else a + b) * np.sqrt(2), rel=1e-9)

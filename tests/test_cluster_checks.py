@@ -23,10 +23,10 @@ compare = _load("tests/cluster/compare.py")
 cluster_resources = _load("benchmarks/cluster_resources.py")
 
 
-def _snakemake_error(results, section, slurm_log):
-    log = results / "logs" / "correct_section" / f"{section}.log"
+def _snakemake_error(results, section, slurm_log, rule="correct_section"):
+    log = results / "logs" / rule / f"{section}.log" if section else results / "logs" / f"{rule}.log"
     return (f"[Mon Nov 23 21:28:02 2026]\n"
-            f"Error in rule correct_section:\n"
+            f"Error in rule {rule}:\n"
             f"    message: SLURM-job '11' failed, SLURM status is: 'FAILED'.\n"
             f"    jobid: 8\n"
             f"    output: {results}/correction/sections/{section}.parquet\n"
@@ -50,20 +50,36 @@ def failed_run(tmp_path):
 
 def test_failure_check_accepts_a_complete_message(failed_run):
     results, slurm_log = failed_run
-    assert check_failure.check(_snakemake_error(results, "C02", slurm_log), results) == []
+    assert check_failure.check(_snakemake_error(results, "C02", slurm_log), results, "correct_section") == []
+
+
+def test_failure_check_of_a_job_without_wildcard(tmp_path):
+    # the registration, one job for the line: its log is logs/register.log, no section to name
+    results = tmp_path / "results"
+    (results / "logs").mkdir(parents=True)
+    slurm_log = tmp_path / "slurm_logs" / "rule_register" / "4.log"
+    slurm_log.parent.mkdir(parents=True)
+    slurm_log.write_text("WorkflowError\n")
+    (results / "logs" / "register.log").write_text(
+        "ERROR catenary.register: ConfigError: /tmp/x/bad_pantographs.yaml:measuring.masses_kg: "
+        "expected values ≥ 0, got [7.5, -9.0, 6.0]\n")
+    output = _snakemake_error(results, None, slurm_log, rule="register")
+    assert check_failure.check(output, results) == []
+    problems = check_failure.check(output, results, "correct_section")
+    assert problems == ["expected the failing rule correct_section, got: Error in rule register:"]
 
 
 def test_failure_check_wants_the_reason_in_the_rule_log(failed_run):
     results, slurm_log = failed_run
     (results / "logs" / "correct_section" / "C02.log").write_text("")      # the 0-byte log of issue [8]
-    problems = check_failure.check(_snakemake_error(results, "C02", slurm_log), results)
+    problems = check_failure.check(_snakemake_error(results, "C02", slurm_log), results, "correct_section")
     assert len(problems) == 1 and "expected the reason" in problems[0]
 
 
 def test_failure_check_wants_the_slurm_log_and_an_error_block(failed_run):
     results, slurm_log = failed_run
     slurm_log.unlink()
-    assert "SLURM log is missing" in check_failure.check(_snakemake_error(results, "C02", slurm_log), results)[0]
+    assert "SLURM log is missing" in check_failure.check(_snakemake_error(results, "C02", slurm_log), results, "correct_section")[0]
     assert check_failure.check("Nothing to be done.\n", results) == ["no 'Error in rule' block in Snakemake's output"]
 
 

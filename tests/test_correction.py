@@ -36,6 +36,15 @@ def measured_spans(section, heights_d, heights_m, start_m=1000.0, section_id="S1
     return pd.DataFrame(rows)
 
 
+def measured_run(truth, catenary, pantograph, mode, time_step_s):
+    """The projected spans of ``truth`` as ``pantograph`` measures it at SPEED_KMH (no noise)."""
+    points = np.concatenate([truth.dropper_chainage_m, truth.mast_chainage_m])
+    heights = measuring_pass(truth, catenary, pantograph, speed_m_s=SPEED_KMH / 3.6, mode=mode,
+                             time_step_s=time_step_s, chainage_m=points).height_m
+    d = truth.dropper_chainage_m.size
+    return measured_spans(truth, heights[:d], heights[d:])
+
+
 def true_line(catenary, n2, n_spans=3, seed=0):
     rng = np.random.default_rng(seed)
     nominal = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
@@ -59,11 +68,7 @@ def test_correction_recovers_the_static_geometry(catenary, n2, measuring, mode, 
     # is cheap; the dynamic one by 0.1 then 0.3–0.5 (the pantograph's dynamics respond a little
     # more to a profile change than the static CW does), so it is run at the paper's 1 mm.
     truth = true_line(catenary, n2)
-    points = np.concatenate([truth.dropper_chainage_m, truth.mast_chainage_m])
-    measured = measuring_pass(truth, catenary, measuring, speed_m_s=SPEED_KMH / 3.6, mode=mode,
-                              time_step_s=time_step_s, chainage_m=points).height_m
-    d = truth.dropper_chainage_m.size
-    spans = measured_spans(truth, measured[:d], measured[d:])
+    spans = measured_run(truth, catenary, measuring, mode, time_step_s)
     settings = CorrectionSettings(mode=mode, time_step_s=time_step_s, tolerance_m=tolerance_m, max_iterations=4,
                                   quasi_static_start=start)
     corrected, history = correct_spans(spans, catenary, measuring, settings)

@@ -9,7 +9,7 @@
 #    an sbatch job. Every result file must equal the local run's byte for byte (the reports'
 #    wall times masked: tests/cluster/compare.py).
 # 4. A throw-away config with a broken pantographs file: the cluster run must fail, naming the
-#    rule, the section and the path of the job's log, and that log must hold the reason.
+#    rule (register, the first job to read it) and the path of the job's log, and that log must hold the reason.
 # The daemons started in 2 are stopped by PID in an EXIT trap, also when a step fails.
 set -euo pipefail
 cd "$(dirname "$0")/../.."

@@ -11,10 +11,12 @@ rule correct_section:
     output:
         corrected=f"{RESULTS}/correction/sections/{{section_id}}.parquet",
         convergence=f"{RESULTS}/correction/sections/{{section_id}}_convergence.csv",
+        model_error=f"{RESULTS}/correction/sections/{{section_id}}_model_error.parquet",
     wildcard_constraints:
         section_id="[^/]+",
     params:
         correction=config["correction"],
+        model_error=config.get("model_error"),
         span_types=SPAN_TYPES,
     log:
         f"{RESULTS}/logs/correct_section/{{section_id}}.log",
@@ -27,17 +29,23 @@ rule correct_section:
 
 
 rule correction:
-    """Gather the corrected sections: static W per span type and the convergence log."""
+    """Gather the corrected sections: static W per span type, the convergence log and the
+    model-error budget (shift of the corrected W per source, against the correction's size)."""
     input:
         sections=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}.parquet",
                                    section_id=correction_sections()),
         convergence=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}_convergence.csv",
                                       section_id=correction_sections()),
+        model_error=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}_model_error.parquet",
+                                      section_id=correction_sections()),
+        spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         catenary=config["catenary"],
     output:
         corrected=expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES),
         convergence=reported(f"{RESULTS}/correction/convergence.csv", "correction_convergence", CORRECTION, "Convergence per iteration", category=LINE),
         summary=reported(f"{RESULTS}/correction/summary.csv", "correction_summary", CORRECTION, "Correction per span type", category=LINE),
+        model_error=f"{RESULTS}/correction/model_error.parquet",
+        budget=reported(f"{RESULTS}/correction/model_error_budget.csv", "model_error_budget", CORRECTION, "Model-error budget of the correction", category=LINE),
     params:
         span_types=SPAN_TYPES,
     log:

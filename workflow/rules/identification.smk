@@ -67,3 +67,27 @@ rule identification_check:
         "../envs/catenary.yaml"
     script:
         "../../scripts/identification_check.py"
+
+
+rule repeatability_check:
+    """Validation only: the repeatability estimated against the truth's split of the run-to-run
+    scatter into the planted sensor noise and what the correction leaves."""
+    input:
+        summaries=expand(f"{RESULTS}/{{span_type}}/repeatability/summary.csv", span_type=SPAN_TYPES),
+        corrected=expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES),
+        spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
+        masts=f"{RESULTS}/registration/masts.csv",
+        truth=f"{RESULTS}/campaign/truth.parquet",
+        truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
+    output:
+        summary=reported(f"{RESULTS}/validation/repeatability_check.csv", "validation_repeatability", IDENTIFICATION, "Repeatability vs truth", category=VALIDATION),
+    params:
+        span_types=SPAN_TYPES,
+    log:
+        f"{RESULTS}/logs/repeatability_check.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/repeatability_check.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/repeatability_check.py"

@@ -122,7 +122,6 @@ rule registration_check:
     input:
         masts=f"{RESULTS}/registration/masts.csv",
         masts_truth=f"{RESULTS}/campaign/masts_truth.csv",
-        truth=f"{RESULTS}/campaign/truth.parquet",
         truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
     output:
         summary=reported(f"{RESULTS}/validation/registration_check.csv", "validation_registration", PROJECTION, "Registration vs truth", category=VALIDATION),
@@ -140,6 +139,7 @@ rule projection_check:
     """Validation only: projected W against the campaign's truth (dynamic W of each run)."""
     input:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
+        masts=f"{RESULTS}/registration/masts.csv",
         truth=f"{RESULTS}/campaign/truth.parquet",
         truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
     output:
