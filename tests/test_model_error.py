@@ -101,3 +101,13 @@ def test_w_budget_combines_the_sources_and_measures_assumption_one():
     np.testing.assert_allclose(budget["systematic_m"], 5e-4, rtol=1e-12)
     np.testing.assert_allclose(budget["correction_over_systematic"], 4e-3 / 5e-4, rtol=1e-9)
     assert (budget["dominant_source"] == "mass").all()
+
+
+def test_a_pantograph_entry_it_does_not_have_is_refused(catenary, measuring):
+    from catenary.model_error.sources import perturbed
+
+    with pytest.raises(ConfigError, match="has 3 masses_kg"):
+        perturbed(Source("fourth_mass", "pantograph.masses_kg.3", relative_std=0.1), 1.0, measuring, catenary, 11.1)
+    moved, _, _ = perturbed(Source("head_mass", "pantograph.masses_kg.0", relative_std=0.1), 2.0, measuring, catenary,
+                            11.1)
+    assert moved.masses_kg.tolist() == pytest.approx([7.5 * 1.2, 9.0, 6.0]) and measuring.masses_kg[0] == 7.5

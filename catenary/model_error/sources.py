@@ -30,8 +30,6 @@ from ..schema import check
 
 __all__ = ["ModelErrorSettings", "Source", "perturbed"]
 
-_ARRAYS = ("masses_kg", "stiffnesses_n_m", "dampings_n_s_m")
-
 
 @dataclass(frozen=True)
 class Source:
@@ -54,10 +52,6 @@ class Source:
     std: float = 0.0
     relative_std: float = 0.0
 
-    def describe(self) -> str:
-        """``force_n ± 1 N`` or ``pantograph.masses_kg.0 ± 10 %``."""
-        return (f"{self.input} ± {self.std:g}" if self.std else f"{self.input} ± {100 * self.relative_std:g} %")
-
 
 @dataclass(frozen=True)
 class ModelErrorSettings:
@@ -73,8 +67,8 @@ class ModelErrorSettings:
         Raises
         ------
         ConfigError
-            A bad block (schema), two sources of one name, or a pantograph entry out of range is
-            found later, by :func:`perturbed`, against the pantograph it questions.
+            A block the schema refuses, or two sources of one name. (A pantograph entry beyond
+            the pantograph's is refused by :func:`perturbed`, which knows the pantograph.)
         """
         if mapping is None:
             return cls()
@@ -124,10 +118,10 @@ def perturbed(source: Source, k: float, pantograph: Pantograph, catenary: Catena
         if ratio < 0:
             raise ConfigError(f"{where}: the perturbed damping ratio {ratio:g} is negative")
         return pantograph, replace(catenary, dynamics=replace(catenary.dynamics, damping_ratio=ratio)), speed_m_s
-    _, array, index = source.input.split(".")       # the schema's pattern guarantees three parts
+    _, array, index = source.input.split(".")       # the schema's pattern: a pantograph array and an index
     values = getattr(pantograph, array).astype(float).copy()
     i = int(index)
-    if array not in _ARRAYS or i >= values.size:
+    if i >= values.size:
         raise ConfigError(f"{where}: pantograph {pantograph.name!r} has {values.size} {array}")
     values[i] = moved(values[i])
     if values[i] < 0 or (values[i] == 0 and array == "masses_kg"):
