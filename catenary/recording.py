@@ -356,9 +356,11 @@ def default_run_id(source: str) -> str:
     return Path(name).stem or "run"
 
 
-def _run_blocks(run_id: pd.Series, src: str) -> list[tuple[str, int, int]]:
-    """(run id, first row, end row) of each run; a run's rows must be consecutive."""
-    ids = run_id.to_numpy(dtype=object)
+def _consecutive_blocks(values: pd.Series, src: str, column: str, what: str, expected: str
+                        ) -> list[tuple[str, int, int]]:
+    """(value, first row, end row) of each block of equal ``values``; a value appearing again after
+    another is refused, naming the row, ``column``, ``what`` it is and what was ``expected``."""
+    ids = values.to_numpy(dtype=object)
     starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
     ends = np.r_[starts[1:], ids.size]
     seen: dict[str, int] = {}
@@ -366,12 +368,16 @@ def _run_blocks(run_id: pd.Series, src: str) -> list[tuple[str, int, int]]:
     for a, b in zip(starts, ends):
         name = str(ids[a])
         if name in seen:
-            raise InputError(f"{src}: {row_label(int(a), src)}, column 'run_id': run {name!r} appears again after "
-                             f"other runs (it started at {row_label(seen[name], src)}); expected the rows of a run "
-                             "consecutive, in time order")
+            raise InputError(f"{src}: {row_label(int(a), src)}, column '{column}': {what} {name!r} appears again "
+                             f"after other {what}s (it started at {row_label(seen[name], src)}); {expected}")
         seen[name] = int(a)
         blocks.append((name, int(a), int(b)))
     return blocks
+
+
+def _run_blocks(run_id: pd.Series, src: str) -> list[tuple[str, int, int]]:
+    """(run id, first row, end row) of each run; a run's rows must be consecutive."""
+    return _consecutive_blocks(run_id, src, "run_id", "run", "expected the rows of a run consecutive, in time order")
 
 
 def _run_direction(chainage: np.ndarray, given: np.ndarray | None, name: str, first: int, src: str,
@@ -585,20 +591,10 @@ def validate_masts(df: pd.DataFrame, source: str | None = None) -> pd.DataFrame:
     chainage = _numeric(df, "chainage_m", src, "chainage of the mast [m]", allow_missing=False)
 
     # Sections: contiguous rows, increasing chainage within, in order along the line, >= 2 masts.
-    sec = section.to_numpy(dtype=object)
-    starts = np.flatnonzero(np.r_[True, sec[1:] != sec[:-1]])
-    ends = np.r_[starts[1:], sec.size]
-    seen: dict[str, int] = {}
-    for a in starts:
-        name = str(sec[a])
-        if name in seen:
-            raise InputError(f"{src}: {row_label(int(a), src)}, column 'section_id': section {name!r} appears "
-                             f"again after other sections (it started at {row_label(seen[name], src)}); "
-                             "expected the masts of a section on consecutive rows")
-        seen[name] = int(a)
+    blocks = _consecutive_blocks(section, src, "section_id", "section",
+                                 "expected the masts of a section on consecutive rows")
     previous: tuple[str, int] | None = None
-    for a, b in zip(starts, ends):
-        name = str(sec[a])
+    for name, a, b in blocks:
         if b - a < 2:
             raise InputError(f"{src}: {row_label(int(a), src)}, column 'section_id': section {name!r} has only "
                              "1 mast; expected at least 2 masts per section (one span)")
