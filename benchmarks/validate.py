@@ -33,6 +33,9 @@ IDENTIFICATION = ("v1_wide", "v2_null", "v3_n3")
 #: Recordings as cars write them (issue [12]): registration and several runs, checked against
 #: their truth up to the projection (``r_*``), the runs' repeatability and identification too.
 RECORDING = ("r_table", "r_stagger", "r_no_table", "r_off", "r_two_runs", "r_two_runs_same", "r_one_run")
+#: Measured by another car than the correction's model (issue [13]): correction, identification
+#: (statistical and total intervals) and diagnosis against the truth.
+MODEL_ERROR = ("m_car", "m_force", "m_panto", "m_speed")
 #: Campaigns whose projection must refuse every span (registration off on a drifting odometer).
 REFUSED = ("r_off",)
 
@@ -55,7 +58,7 @@ def targets(name: str) -> list[str]:
             out.append(f"{folder}/validation/repeatability_check.csv")
         return out
     out = [f"{folder}/validation/diagnosis_check.csv", f"{folder}/validation/correction_check.csv"]
-    if name == "default" or name in IDENTIFICATION:
+    if name == "default" or name in IDENTIFICATION or name in MODEL_ERROR:
         out.append(f"{folder}/validation/identification_check.csv")
     return out
 

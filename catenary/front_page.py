@@ -13,6 +13,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 # Snakemake renders the page with Jinja before docutils: no text of ours may hold Jinja markup.
@@ -62,19 +63,39 @@ def correction_lines(summary: pd.DataFrame, span_type: str) -> list[str]:
             f"passes, largest final gap {_number(1e3 * r.max_gap_norm_m, 3)} mm.", ""]
 
 
-def identification_lines(s_opt: pd.DataFrame) -> list[str]:
-    """The Table 2 analogue: μ and σ of every identified input with their standard errors."""
+def identification_lines(s_opt: pd.DataFrame, model_error: pd.DataFrame | None = None) -> list[str]:
+    """The Table 2 analogue: μ and σ of every identified input with their standard errors and,
+    where the correction's model-error budget was measured, the 95 % total intervals and the
+    source that dominates each parameter's systematic."""
     status = sorted(set(s_opt["status"].astype(str)))
     converged = bool(s_opt["converged"].astype(bool).all())
     lines = [f"**Identification (Table 2 analogue):** optimiser {'converged' if converged else 'NOT converged'}, "
              f"status {', '.join(status)}. Values in SI units (lengths [m], tension [N]); the dropper "
              "means are held at the nominal table unless configured free.", ""]
+    budget = model_error is not None and len(model_error) > 0
+    if budget:
+        lines += ["The 95 % total intervals add to the statistical one the correction's model error (the "
+                  "measuring car's force, pantograph, speed and the catenary's damping, each at its declared "
+                  "uncertainty; *Identification* › *model error*); the dominant source is the one that moves "
+                  "the parameter most.", ""]
+        dominant = {(r.parameter, r.statistic): (r.dominant_source, r.systematic) for r in model_error.itertuples()}
     rows = []
     for r in s_opt.itertuples():
         fixed = bool(getattr(r, "mu_fixed", False))
-        rows.append([r.parameter, _number(r.mu, 6), "held fixed" if fixed else _number(r.mu_se, 3),
-                     _number(r.sigma, 4), _number(r.sigma_se, 3)])
-    return lines + _table(["input", "μ", "s.e. of μ", "σ", "s.e. of σ"], rows)
+        row = [r.parameter, _number(r.mu, 6), "held fixed" if fixed else _number(r.mu_se, 3),
+               _number(r.sigma, 4), _number(r.sigma_se, 3)]
+        if budget:
+            for statistic in ("mu", "sigma"):
+                low, high = getattr(r, f"{statistic}_total_low"), getattr(r, f"{statistic}_total_high")
+                digits = 6 if statistic == "mu" else 4                   # as the μ and σ columns
+                row.append("–" if not np.isfinite(low) else f"[{_number(low, digits)}, {_number(high, digits)}]")
+            row.append("; ".join(f"{stat}: {dominant[(r.parameter, key)][0]}" for key, stat in (("mu", "μ"), ("sigma", "σ"))
+                                 if dominant.get((r.parameter, key), ("", 0))[0]))
+        rows.append(row)
+    header = ["input", "μ", "s.e. of μ", "σ", "s.e. of σ"]
+    if budget:
+        header += ["μ, 95 % total", "σ, 95 % total", "dominant model error"]
+    return lines + _table(header, rows)
 
 
 def diagnosis_lines(findings: pd.DataFrame | None) -> list[str]:
@@ -88,6 +109,9 @@ def diagnosis_lines(findings: pd.DataFrame | None) -> list[str]:
             sizes = ", ".join(f"{k} = {_number(v[0])} ± {_number(v[1], 2)}" for k, v in params.items())
             text = (f"step {r.step}: **{r.effect}** named (p = {_number(r.p_value, 2)}, runner-up {r.runner_up}"
                     f"{'; ' + sizes if sizes else ''})")
+            if str(getattr(r, "correction_model_alike", False)).lower() == "true":
+                text += (" — but it could equally be the correction's model of the measuring car (its shift of the "
+                         "mean W is within the model-error budget): check the car before acting on it")
         elif r.verdict == "ambiguous":
             text = (f"step {r.step}: ambiguous between **{r.effect}** and **{r.runner_up}** "
                     f"(p = {_number(r.p_value, 2)}): the data cannot tell them apart")
@@ -98,7 +122,8 @@ def diagnosis_lines(findings: pd.DataFrame | None) -> list[str]:
 
 
 def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.DataFrame,
-               s_opt: dict[str, pd.DataFrame], findings: dict[str, pd.DataFrame | None]) -> str:
+               s_opt: dict[str, pd.DataFrame], findings: dict[str, pd.DataFrame | None],
+               model_error: dict[str, pd.DataFrame | None] | None = None) -> str:
     """The report's front page (reStructuredText).
 
     Parameters
@@ -110,6 +135,8 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
     s_opt, findings : dict
         Per measured span type: its ``s_opt.csv`` and its ``diagnosis/findings.csv`` (None when
         the diagnosis was not part of the run).
+    model_error : dict, optional
+        Per span type: its ``identification/model_error.csv`` (None or empty: not measured).
     """
     lines = [intro.rstrip(), ""]
     lines += _heading("Summary per span type", "-")
@@ -120,7 +147,7 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
         lines += _heading(span_type, "~")
         lines += spans_lines(spans_report, span_type)
         lines += correction_lines(correction_summary, span_type)
-        lines += identification_lines(s_opt[span_type])
+        lines += identification_lines(s_opt[span_type], (model_error or {}).get(span_type))
         lines += diagnosis_lines(findings.get(span_type))
     text = "\n".join(lines) + "\n"
     for mark in _JINJA:
@@ -130,7 +157,8 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
 
 def write_front_page(path: str | Path, intro_path: str | Path, spans_report_path: str | Path,
                      correction_summary_path: str | Path, s_opt_paths: dict[str, str],
-                     findings_paths: dict[str, str | None]) -> Path:
+                     findings_paths: dict[str, str | None],
+                     model_error_paths: dict[str, str | None] | None = None) -> Path:
     """Read the pipeline's outputs, write :func:`front_page` to ``path``."""
     text = front_page(
         Path(intro_path).read_text(encoding="utf-8"),
@@ -138,6 +166,7 @@ def write_front_page(path: str | Path, intro_path: str | Path, spans_report_path
         pd.read_csv(correction_summary_path),
         {t: pd.read_csv(p) for t, p in s_opt_paths.items()},
         {t: (pd.read_csv(p) if p else None) for t, p in findings_paths.items()},
+        {t: (pd.read_csv(p) if p else None) for t, p in (model_error_paths or {}).items()},
     )
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

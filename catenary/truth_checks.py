@@ -282,7 +282,10 @@ def identification_round_trip(s_opt: pd.DataFrame, corrected: pd.DataFrame, trut
         One row per identified quantity (free means and σ): ``parameter``, ``statistic``
         (``mu`` or ``sigma``), ``estimate``, ``standard_error``, ``realized`` (sample mean or
         standard deviation over the spans used, :func:`realized_truth`), ``z`` =
-        (estimate − realized) / standard_error, ``n_spans`` and the run's ``status``.
+        (estimate − realized) / standard_error, ``n_spans``, the run's ``status``, and where
+        ``s_opt`` has them the 95 % intervals against the realized value: ``profile_low``,
+        ``profile_high``, ``inside_profile`` (statistical) and ``total_low``, ``total_high``,
+        ``inside_total`` (with the correction's model error; NaN/False when not measured).
     """
     converged = corrected[corrected["converged"]]
     used = pd.Series(match_spans(converged, truth)).drop_duplicates()
@@ -295,9 +298,17 @@ def identification_round_trip(s_opt: pd.DataFrame, corrected: pd.DataFrame, trut
         stats = ([] if r.mu_fixed else [("mu", r.mu, r.mu_se, realized[r.parameter][0])])
         stats.append(("sigma", r.sigma, r.sigma_se, realized[r.parameter][1]))
         for statistic, estimate, se, true in stats:
+            ends = {}
+            for kind in ("profile", "total"):
+                low = float(getattr(r, f"{statistic}_{kind}_low", np.nan))
+                high = float(getattr(r, f"{statistic}_{kind}_high", np.nan))
+                if kind == "profile" and not np.isfinite(low):      # not profiled: the Wald interval
+                    low, high = float(estimate) - 1.959964 * float(se), float(estimate) + 1.959964 * float(se)
+                ends.update({f"{kind}_low": low, f"{kind}_high": high, f"inside_{kind}": bool(low <= true <= high)})
             rows.append({"parameter": r.parameter, "statistic": statistic, "estimate": float(estimate),
                          "standard_error": float(se), "realized": true,
                          "z": (float(estimate) - true) / float(se) if se > 0 else float("nan"),
-                         "n_spans": int(len(used)), "status": r.status})
+                         "n_spans": int(len(used)), "status": r.status, **ends})
     return pd.DataFrame(rows, columns=["parameter", "statistic", "estimate", "standard_error", "realized", "z",
-                                       "n_spans", "status"])
+                                       "n_spans", "status", "profile_low", "profile_high", "inside_profile",
+                                       "total_low", "total_high", "inside_total"])

@@ -17,17 +17,19 @@ section_id = snakemake.wildcards.section_id
 catenary = load_catenary(snakemake.input.catenary)
 settings = CorrectionSettings.from_mapping(snakemake.params.correction)
 pantograph = load_pantographs(snakemake.input.pantographs)[settings.pantograph]
-spans = []
-for span_type, path in zip(snakemake.params.span_types, snakemake.input.spans):
-    table = read_table(path)
-    spans.append(table[table["section_id"] == section_id].assign(span_type=span_type))
-spans = pd.concat(spans, ignore_index=True)
+every = pd.concat([read_table(path).assign(span_type=span_type)
+                   for span_type, path in zip(snakemake.params.span_types, snakemake.input.spans)], ignore_index=True)
+spans = every[every["section_id"] == section_id].reset_index(drop=True)
 log.info("section %s: %d spans, %s pass, tolerance %.2f mm", section_id, len(spans), settings.mode,
          settings.tolerance_m * 1e3)
 report = pd.read_csv(snakemake.input.report, dtype={"span_id": str, "run_id": str, "section_id": str,
                                                     "span_type": str}, keep_default_na=False,
                      na_values={c: [""] for c in ("start_chainage_m", "end_chainage_m", "length_m")})
 budget = ModelErrorSettings.from_mapping(snakemake.params.model_error)
+measure = section_id in budget.measured_sections(every)
+if budget.enabled and not measure:
+    log.info("section %s: model-error budget measured on other sections (model_error.sections_per_span_type %d)",
+             section_id, budget.sections_per_span_type)
 n_max = max(catenary.span_type(t).n_droppers for t in snakemake.params.span_types)
 shifts = []
 
@@ -42,8 +44,8 @@ def measure_budget(rows, result, run_pantograph, speed_m_s, direction, profile):
 
 
 corrected, convergence = correct_spans(spans, catenary, pantograph, settings, log=log, report=report,
-                                       after_run=measure_budget if budget.enabled else None)
-columns = ["run_id", "section_id", "span_type", "span_id", "source"] + [f"w{i + 1}_m" for i in range(n_max)] + ["status"]
+                                       after_run=measure_budget if measure else None)
+columns = ["run_id", "section_id", "span_type", "span_id", "source"] + [f"w{i + 1}_m" for i in range(n_max)] + ["residual_m", "direct_m", "passes", "status"]
 (pd.concat(shifts, ignore_index=True) if shifts else pd.DataFrame(columns=columns)).to_parquet(
     snakemake.output.model_error, index=False)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),

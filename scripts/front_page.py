@@ -8,5 +8,6 @@ inputs = dict(snakemake.input.items())
 types = [key.removeprefix("s_opt_") for key in inputs if key.startswith("s_opt_")]
 path = write_front_page(snakemake.output.front_page, snakemake.input.intro, snakemake.input.spans_report,
                         snakemake.input.correction_summary, {t: inputs[f"s_opt_{t}"] for t in types},
-                        {t: inputs.get(f"findings_{t}") for t in types})
+                        {t: inputs.get(f"findings_{t}") for t in types},
+                        {t: inputs.get(f"model_error_{t}") for t in types})
 log.info("front page for %s written to %s", ", ".join(types) or "no span type", path)

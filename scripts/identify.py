@@ -7,7 +7,8 @@ from catenary.identification.outputs import IdentificationPaths, write_identific
 from catenary.identification.report import read_corrected, run_identification
 from catenary.identification.settings import IdentificationSettings
 from catenary.logs import rule_logger
-from catenary.parquet import settings_hash
+from catenary.model_error.propagation import span_shifts
+from catenary.parquet import read_table, settings_hash
 from catenary.repeatability import read_noise
 
 log = rule_logger("identify", snakemake.log[0])
@@ -20,13 +21,24 @@ data = read_corrected(snakemake.input.corrected, span_type, flagged)
 log.info("%s: %d converged spans used, %d left out", span_type.name, data.w_m.shape[0], len(data.left_out))
 for span_id, why in data.left_out:
     log.info("left out %s: %s", span_id, why)
+w_shifts = None
+if snakemake.params.model_error_enabled:
+    w_shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
+                           span_type.n_droppers, read_table(snakemake.input.corrected))
+    for source, n in w_shifts.filled.items():
+        log.info("model error %s: %d of %d spans with no measured shift of their own take the others' mean", source,
+                 n, data.w_m.shape[0])
+    for source, why in w_shifts.unmeasured.items():
+        log.warning("model error %s: not in the budget (%s)", source, why)
 run = run_identification(span_type, catenary, data.w_m, settings, left_out=data.left_out,
                          mast_pairs=data.mast_pairs, log=log, n_runs=data.n_runs,
-                         noise_covariance_m2=settings.noise_covariance_m2(span_type.n_droppers, repeatability_m2))
+                         noise_covariance_m2=settings.noise_covariance_m2(span_type.n_droppers, repeatability_m2),
+                         w_shifts=w_shifts)
 out = snakemake.output
 write_identification(run, IdentificationPaths(s_opt=Path(out.s_opt), trace=Path(out.trace),
                                               estimators=Path(out.estimators), normality=Path(out.normality),
-                                              band=Path(out.band), report=Path(out.report)),
+                                              band=Path(out.band), report=Path(out.report),
+                                              model_error=Path(out.model_error)),
                      config_hash=settings_hash(snakemake.config), source=Path(snakemake.input.corrected).name)
 for row in run.result.table_rows():
     log.info("s_opt %-22s mu %.6g ± %.3g  sigma %.4g ± %.3g%s", row["parameter"], row["mu"], row["mu_se"],

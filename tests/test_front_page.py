@@ -42,3 +42,24 @@ def test_front_page_says_what_each_table_says_and_is_valid_rst():
 def test_a_span_type_without_diagnosis_says_so():
     page = front_page("T\n=\n", SPANS, CORRECTION, {"N2": S_OPT}, {"N2": None})
     assert "**Diagnosis:** not run for this span type." in page
+
+
+def test_front_page_carries_the_total_intervals_and_the_correction_models_caveat():
+    # With the model-error budget: the 95 % total interval beside each parameter and the source
+    # dominating it; a named effect within the budget gets its caveat.
+    s_opt = S_OPT.assign(mu_total_low=[float("nan"), 20120.0], mu_total_high=[float("nan"), 20960.0],
+                         sigma_total_low=[0.0035, 550.0], sigma_total_high=[0.0110, 1240.0])
+    budget = pd.DataFrame([
+        {"parameter": "dropper_1_length_m", "statistic": "sigma", "systematic": 3e-5, "dominant_source": "head_mass"},
+        {"parameter": "messenger_tension_n", "statistic": "mu", "systematic": 29.2,
+         "dominant_source": "measuring_force"},
+        {"parameter": "messenger_tension_n", "statistic": "sigma", "systematic": 1.4, "dominant_source": "speed"}])
+    findings = FINDINGS.assign(correction_model_alike=[True, False, False])
+    page = front_page("T\n=\n", SPANS, CORRECTION, {"N2": s_opt}, {"N2": findings}, {"N2": budget})
+    assert "[20120, 20960]" in page and "[550, 1240]" in page and "[0.0035, 0.011]" in page
+    assert "μ: measuring_force; σ: speed" in page and "σ: head_mass" in page
+    assert "could equally be the correction's model of the measuring car" in page
+    body = publish_parts(page, writer="html", settings_overrides={"report_level": 2, "halt_level": 2})["body"]
+    assert body.count("<tr>") == 3
+    # without a budget the table keeps its five columns and says nothing of a total
+    assert "95 % total" not in front_page("T\n=\n", SPANS, CORRECTION, {"N2": S_OPT}, {"N2": FINDINGS})

@@ -14,17 +14,19 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..model_error.diagnosis import Alike, correction_model_alike
+from ..model_error.propagation import Z95
 from .candidates import CANDIDATES, CandidateParameter
 from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure
 from .runner import DiagnosisRun
 
 __all__ = ["CANDIDATE_COLUMNS", "DiagnosisPaths", "FINDING_COLUMNS", "candidates_table", "findings_table",
-           "format_magnitude", "summary_markdown", "write_diagnosis"]
+           "format_magnitude", "step_alike", "summary_markdown", "write_diagnosis"]
 
 FINDING_COLUMNS = ("step", "verdict", "effect", "runner_up", "delta_loglik", "p_value", "parameters",
                    "gap_closed_fraction", "bic_margin_to_runner_up", "j_before", "j_after", "top_eigenvalue_before",
                    "top_eigenvalue_after", "top_eigenvalue_band_after", "mahalanobis_cvm_p_before",
-                   "mahalanobis_cvm_p_after", "converged")
+                   "mahalanobis_cvm_p_after", "converged", "correction_model_alike", "correction_model_fit")
 CANDIDATE_COLUMNS = ("step", "effect", "n_parameters", "loglik", "delta_loglik", "lr_statistic", "lr_sandwich_factor",
                      "p_value", "p_adjusted", "aic", "bic", "parameters", "detectable_magnitude", "score_statistic",
                      "score_p_value", "score_z", "converged", "n_evaluations", "time_s")
@@ -78,9 +80,25 @@ def format_magnitude(value: float, unit: str, se: float | None = None) -> str:
     return text + suffix
 
 
-def findings_table(run: DiagnosisRun) -> pd.DataFrame:
+def step_alike(step, sources: dict[str, np.ndarray] | None) -> Alike | None:
+    """Whether a named step's effect could equally be the correction's model
+    (:mod:`catenary.model_error.diagnosis`): its shift of the mean W is the mean residual before
+    the step less the one after, the standard error from the 95 % interval before. None when the
+    step named nothing or no budget was measured."""
+    if step.verdict != "named" or step.after is None or not sources:
+        return None
+    b = step.before
+    se = (b.residual_high_m - b.residual_low_m) / (2.0 * Z95)
+    return correction_model_alike(b.residual_mean_m - step.after.residual_mean_m, se, sources)
+
+
+def findings_table(run: DiagnosisRun, sources: dict[str, np.ndarray] | None = None) -> pd.DataFrame:
+    """One row per step (:data:`FINDING_COLUMNS`); ``correction_model_alike`` and
+    ``correction_model_fit`` (JSON: the sources' best combination) say whether a named effect is
+    within the correction's model-error budget ``sources`` (:func:`step_alike`)."""
     rows = []
     for s in run.steps:
+        alike = step_alike(s, sources)
         lead = s.leading
         runner = next((c for c in s.candidates if c.effect == s.runner_up), None)
         after = s.after
@@ -94,7 +112,9 @@ def findings_table(run: DiagnosisRun) -> pd.DataFrame:
             top_eigenvalue_before=s.before.eigenvalues[0], top_eigenvalue_after=after.eigenvalues[0] if after else np.nan,
             top_eigenvalue_band_after=_json([after.eigen_low[0], after.eigen_high[0]]) if after else "",
             mahalanobis_cvm_p_before=s.before.cvm_p_value, mahalanobis_cvm_p_after=after.cvm_p_value if after else np.nan,
-            converged=bool(lead.converged) if lead else True))
+            converged=bool(lead.converged) if lead else True,
+            correction_model_alike=bool(alike.alike) if alike else False,
+            correction_model_fit=alike.as_json() if alike else ""))
     return pd.DataFrame(rows, columns=list(FINDING_COLUMNS))
 
 
@@ -138,8 +158,10 @@ def _where(loc) -> list[str]:
     return out
 
 
-def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = ()) -> str:
-    """The plain-words report of a diagnosis run."""
+def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
+                     sources: dict[str, np.ndarray] | None = None) -> str:
+    """The plain-words report of a diagnosis run (``sources``: the correction's model-error
+    budget, :func:`step_alike`)."""
     s = run.settings
     lines = [f"# Diagnosis of span type {run.span_type}", ""]
     if not run.converged:
@@ -170,6 +192,20 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = ()) -> str
                       f"{100 * st.gap_closed_fraction:.0f} % of the free Gaussian's gain"
                       + (f"; runner-up `{runner.effect}` with a BIC higher by {runner.bic - lead.bic:.1f}." if runner
                          else "."), ""]
+            alike = step_alike(st, sources)
+            if alike is not None and alike.alike:
+                combo = ", ".join(f"`{k}` {v:+.1f}" for k, v in alike.coefficients.items() if abs(v) > 0.05)
+                lines += [f"**It could equally be the correction's model of the measuring car**: the mean shift of W "
+                          f"it brings (χ² {alike.chi2_effect:.1f} against {alike.threshold:.1f}) is reproduced by the "
+                          f"model-error budget's sources within two standard uncertainties ({combo} standard "
+                          f"uncertainties; χ² left {alike.chi2_left:.1f}). Check the car (force, pantograph, speed) "
+                          "before acting on this effect.", ""]
+            elif alike is not None:
+                lines += [f"Not the correction's model: no combination of the model-error budget's sources within two "
+                          f"standard uncertainties reproduces its shift of the mean W (χ² of the shift "
+                          f"{alike.chi2_effect:.1f}, left {alike.chi2_left:.1f}, against {alike.threshold:.1f}"
+                          + ("; the effect acts on the spread of W, which a systematic cannot mimic)."
+                             if alike.chi2_effect <= alike.threshold else ")."), ""]
             a = st.after
             lines += [f"After adding it: λ₁ = {a.eigenvalues[0]:.2f} "
                       f"({'inside' if a.top_eigenvalue_inside else 'still outside'} [{a.eigen_low[0]:.2f}, "
@@ -222,11 +258,13 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = ()) -> str
     return "\n".join(lines)
 
 
-def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths) -> None:
-    """Write every output of one span type's diagnosis."""
+def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, sources: dict[str, np.ndarray] | None = None) -> None:
+    """Write every output of one span type's diagnosis (``sources``: the correction's model-error
+    budget per source, :func:`catenary.model_error.diagnosis.budget_signatures`; None: not
+    measured)."""
     for p in paths.__dict__.values():
         Path(p).parent.mkdir(parents=True, exist_ok=True)
-    findings_table(run).to_csv(paths.findings, index=False, float_format="%.10g")
+    findings_table(run, sources).to_csv(paths.findings, index=False, float_format="%.10g")
     candidates_table(run).to_csv(paths.candidates, index=False, float_format="%.10g")
     steps = [{"step": s.step, "model_effects": list(s.model_effects), "verdict": s.verdict, "effect": s.effect,
               "runner_up": s.runner_up, "before": s.before.as_dict(), "after": s.after.as_dict() if s.after else None}
@@ -241,4 +279,5 @@ def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths) -> None:
     qq_figure(run, paths.qq, title)
     score_figure(run, paths.scores, title)
     Path(paths.summary).write_text(summary_markdown(
-        run, figures=tuple(Path(p).name for p in (paths.residuals, paths.eigenvalues, paths.qq, paths.scores))))
+        run, figures=tuple(Path(p).name for p in (paths.residuals, paths.eigenvalues, paths.qq, paths.scores)),
+        sources=sources))

@@ -3,7 +3,9 @@
 ``s_opt.csv`` (:func:`.report.s_opt_table`), ``trace.parquet`` (:func:`.report.trace_table`,
 explicit Arrow schema :func:`.report.trace_schema`), ``normality.json``
 (:func:`.report.normality_report`), ``estimators.png``, ``band.png`` (:mod:`.figures`) and
-``identification.md`` (:func:`.report.markdown_report`).
+``identification.md`` (:func:`.report.markdown_report`) and, where the correction's model-error
+budget was measured, ``model_error.csv`` (:func:`catenary.model_error.propagation.budget_table`;
+headers only without it).
 """
 
 from __future__ import annotations
@@ -12,6 +14,9 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
+import pandas as pd
+
+from ..model_error.propagation import MODEL_ERROR_COLUMNS
 from ..parquet import write_table
 from .figures import band_figure, estimators_figure
 from .report import IdentificationRun, markdown_report, s_opt_table, trace_schema, trace_table
@@ -29,13 +34,15 @@ class IdentificationPaths:
     normality: Path
     band: Path
     report: Path
+    model_error: Path | None = None
 
     @classmethod
     def in_folder(cls, folder: str | Path) -> "IdentificationPaths":
         """The standard names inside ``folder``."""
         f = Path(folder)
         return cls(s_opt=f / "s_opt.csv", trace=f / "trace.parquet", estimators=f / "estimators.png",
-                   normality=f / "normality.json", band=f / "band.png", report=f / "identification.md")
+                   normality=f / "normality.json", band=f / "band.png", report=f / "identification.md",
+                   model_error=f / "model_error.csv")
 
 
 def write_identification(run: IdentificationRun, paths: IdentificationPaths, *, config_hash: str,
@@ -54,7 +61,10 @@ def write_identification(run: IdentificationRun, paths: IdentificationPaths, *, 
     for p in (paths.s_opt, paths.trace, paths.estimators, paths.normality, paths.band, paths.report):
         Path(p).parent.mkdir(parents=True, exist_ok=True)
     st = run.span_type.name
-    s_opt_table(run.result, run.profiles).to_csv(paths.s_opt, index=False, float_format="%.17g")
+    s_opt_table(run.result, run.profiles, run.model_error).to_csv(paths.s_opt, index=False, float_format="%.17g")
+    if paths.model_error is not None:
+        budget = run.model_error if run.model_error is not None else pd.DataFrame(columns=MODEL_ERROR_COLUMNS)
+        budget.to_csv(paths.model_error, index=False, float_format="%.17g")
     names = [e.parameter for e in run.result.estimates]
     status = run.result.status
     write_table(trace_table(run.result), paths.trace, trace_schema(names), config_hash=config_hash,

@@ -27,11 +27,13 @@ from ..config import Catenary, SpanType
 from ..errors import ConvergenceError, InputError
 from ..fast import FastSpanModel
 from ..normality import henze_zirkler
+from ..model_error.propagation import SpanShifts, budget_table, parameter_shifts, total_intervals
+from ..model_error.report import model_error_lines
 from ..parquet import read_table
 from .band import DeflectionBand, band_abscissae, deflection_band
 from .dependence import adjacent_span_pairs, variance_inflation
 from .design import MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, design_dimension, draw_unit_design
-from .fit import identify, make_likelihood
+from .fit import ScaledProblem, identify, make_likelihood
 from .likelihood import Likelihood, ModelSample, fit_gaussian, kernel_bandwidth
 from .profile import ProfileInterval, profile_intervals
 from .result import IdentificationResult
@@ -44,7 +46,8 @@ __all__ = ["CorrectedData", "IdentificationRun", "MarginalDensities", "S_OPT_COL
 
 S_OPT_COLUMNS = ("parameter", "mu", "sigma", "mu_se", "sigma_se", "mu_variance_widening", "sigma_variance_widening",
                  "mu_fixed", "mu_profile_low", "mu_profile_high", "sigma_profile_low", "sigma_profile_high",
-                 "no_spread_detected", "converged", "status")
+                 "no_spread_detected", "converged", "status", "mu_systematic", "sigma_systematic",
+                 "mu_total_low", "mu_total_high", "sigma_total_low", "sigma_total_high")
 _REQUIRED = ("span_id", "converged")
 _ADJACENCY = ("section_id", "start_chainage_m", "end_chainage_m")
 _LOG = logging.getLogger(__name__)
@@ -327,6 +330,12 @@ class IdentificationRun:
         The measurement noise of one run in the likelihood [m²] (``measurement_noise``).
     n_runs : numpy.ndarray or None
         Runs averaged into each span's W.
+    model_error : pandas.DataFrame or None
+        The correction's model-error budget carried to the identified parameters
+        (:func:`catenary.model_error.propagation.budget_table`); None when not measured.
+    model_error_shifts : SpanShifts or None
+        What the budget gave the identification (which spans were filled, which sources could
+        not be measured and why).
     """
 
     span_type: SpanType
@@ -346,6 +355,8 @@ class IdentificationRun:
     total_time_s: float
     noise_covariance_m2: np.ndarray | None = None
     n_runs: np.ndarray | None = None
+    model_error: pd.DataFrame | None = None
+    model_error_shifts: SpanShifts | None = None
 
 
 #: Spans per identified parameter below which the standard errors are flagged as rough: they
@@ -382,7 +393,8 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
                        settings: IdentificationSettings, *, left_out: list[tuple[str, str]] | None = None,
                        mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None,
                        noise_covariance_m2: np.ndarray | None = None,
-                       n_runs: np.ndarray | None = None) -> IdentificationRun:
+                       n_runs: np.ndarray | None = None,
+                       w_shifts: SpanShifts | None = None) -> IdentificationRun:
     """Identify the input laws of ``span_type`` from measured deflections and build every output.
 
     Parameters
@@ -404,6 +416,11 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
         :meth:`.settings.IdentificationSettings.noise_covariance_m2`.
     n_runs : numpy.ndarray of int, optional
         Runs averaged into each row of ``data_w_m`` (default 1).
+    w_shifts : SpanShifts, optional
+        The correction's model-error budget: per source, the shift of ``data_w_m`` for one
+        standard uncertainty (:func:`catenary.model_error.propagation.span_shifts`). Given, each
+        source is carried to every identified μ and σ (:mod:`catenary.model_error.propagation`)
+        and s_opt gets its total intervals.
 
     Returns
     -------
@@ -469,6 +486,17 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     if not result.standard_errors_available:
         log.warning("%s: the observed information is not positive definite at s_opt: no standard errors "
                     "(status %s)", span_type.name, result.status)
+    budget = None
+    if w_shifts and w_shifts.w_m and result.status == "ok":
+        problem = ScaledProblem.for_inputs(lik, start, s.free_mean_names(n), random)
+        moved = parameter_shifts(problem, result.theta_opt, result.theta_covariance, w_shifts.w_m, s.hessian_step)
+        budget = budget_table(problem, result.theta_opt, result.means, result.sigmas, [r.name for r in start], moved)
+        for row in budget.itertuples():
+            log.info("%s: model error: %s %s = %.6g, systematic %.3g (dominant: %s)", span_type.name, row.parameter,
+                     row.statistic, row.estimate, row.systematic, row.dominant_source)
+    elif w_shifts:
+        log.warning("%s: no model-error budget of the parameters (identification status %s)", span_type.name,
+                    result.status)
     t_profile = time.perf_counter()
     profiled = s.profile_names(n)
     profiles = []
@@ -513,10 +541,12 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
                              data_w_m=data, left_out=list(left_out or []), normality=normality, marginals=marginals,
                              band=band, data_in_band=inside.mean(axis=0), identification_time_s=result.time_s,
                              profiles=profiles, profile_time_s=profile_time, total_time_s=time.perf_counter() - t0,
-                             noise_covariance_m2=noise_covariance_m2, n_runs=n_runs)
+                             noise_covariance_m2=noise_covariance_m2, n_runs=n_runs, model_error=budget,
+                             model_error_shifts=w_shifts)
 
 
-def s_opt_table(result: IdentificationResult, profiles: list[ProfileInterval] = ()) -> pd.DataFrame:
+def s_opt_table(result: IdentificationResult, profiles: list[ProfileInterval] = (),
+                model_error: pd.DataFrame | None = None) -> pd.DataFrame:
     """s_opt with standard errors: columns ``parameter``, ``mu``, ``sigma``, ``mu_se``, ``sigma_se``,
     ``mu_fixed`` (SI, in the unit of each parameter's name; se 0 where not identified, NaN where
     the information is singular), ``mu_variance_widening`` and ``sigma_variance_widening`` (the
@@ -525,7 +555,10 @@ def s_opt_table(result: IdentificationResult, profiles: list[ProfileInterval] = 
     interval ends ``mu_profile_low`` …
     ``sigma_profile_high`` (NaN where not profiled; ``sigma_profile_low`` = 0 when the interval
     reaches no spread), ``no_spread_detected`` (the σ interval reaches 0), ``converged`` and
-    ``status`` (:attr:`.result.IdentificationResult.status`, the same on every row)."""
+    ``status`` (:attr:`.result.IdentificationResult.status`, the same on every row), then the
+    correction's model error: ``mu_systematic``, ``sigma_systematic`` (one standard uncertainty)
+    and the 95 % total intervals ``mu_total_low`` … ``sigma_total_high``
+    (:func:`catenary.model_error.propagation.total_intervals`; NaN without a budget)."""
     rows = result.table_rows()
     by_key = {(p.parameter, p.statistic): p for p in profiles}
     widening = dict(zip(result.free_parameters, result.variance_widening))
@@ -538,7 +571,7 @@ def s_opt_table(result: IdentificationResult, profiles: list[ProfileInterval] = 
             row[f"{statistic}_profile_high"] = p.high if p else np.nan
         sigma = by_key.get((row["parameter"], "sigma"))
         row["no_spread_detected"] = bool(sigma.no_spread_detected) if sigma else False
-    return pd.DataFrame(rows, columns=list(S_OPT_COLUMNS))
+    return total_intervals(pd.DataFrame(rows, columns=list(S_OPT_COLUMNS[:-6])), model_error)[list(S_OPT_COLUMNS)]
 
 
 def trace_schema(parameters: tuple[str, ...] | list[str]) -> pa.Schema:
@@ -664,6 +697,8 @@ def markdown_report(run: IdentificationRun, *, source: str = "corrected.parquet"
                          f"[{_fmt(p.low * scale, unit)}, {_fmt(p.high * scale, unit)}] | "
                          f"[{_fmt(lo * scale, unit)}, {_fmt(hi * scale, unit)}] | {unit} | {verdict} |")
         lines += ["", f"{sum(p.n_evaluations for p in run.profiles)} J evaluations, {run.profile_time_s:.1f} s.", ""]
+    lines += model_error_lines(run.model_error, s_opt_table(r, run.profiles, run.model_error),
+                               run.model_error_shifts, run.data_w_m.shape[0], _label)
     lines += ["## Run", "",
               "| item | value |", "|---|---|",
               f"| spans used | {run.data_w_m.shape[0]} |",

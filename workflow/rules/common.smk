@@ -84,10 +84,12 @@ FRONT_PAGE = f"{RESULTS}/report/front_page.rst"
 
 
 def front_page_inputs(wildcards):
-    """s_opt.csv and findings.csv of every measured span type, keyed s_opt_<type>, findings_<type>."""
+    """s_opt.csv, model_error.csv and findings.csv of every measured span type, keyed s_opt_<type>,
+    model_error_<type>, findings_<type>."""
     inputs = {}
     for span_type in measured_span_types():
         inputs[f"s_opt_{span_type}"] = f"{RESULTS}/{span_type}/identification/s_opt.csv"
+        inputs[f"model_error_{span_type}"] = f"{RESULTS}/{span_type}/identification/model_error.csv"
         inputs[f"findings_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/findings.csv"
     return inputs
 

@@ -7,6 +7,7 @@ rule diagnose:
     shrink (README: Discrepancy workflow)."""
     input:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
+        model_error_budget=f"{RESULTS}/correction/model_error_budget.csv",
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:
@@ -22,6 +23,7 @@ rule diagnose:
         identification=span_type_settings("identification"),
         diagnosis=span_type_settings("diagnosis"),
         correction=config["correction"],
+        model_error_enabled=config.get("model_error", {}).get("enabled", False),
     threads: 2
     log:
         f"{RESULTS}/logs/diagnose/{{span_type}}.log",

@@ -29,6 +29,7 @@ rule identify:
     input:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
         noise=f"{RESULTS}/{{span_type}}/repeatability/noise.json",
+        model_error=f"{RESULTS}/correction/model_error.parquet",
         catenary=config["catenary"],
     output:
         s_opt=reported(f"{RESULTS}/{{span_type}}/identification/s_opt.csv", "s_opt", IDENTIFICATION, "Table 2: s_opt"),
@@ -37,8 +38,10 @@ rule identify:
         normality=f"{RESULTS}/{{span_type}}/identification/normality.json",
         band=reported(f"{RESULTS}/{{span_type}}/identification/band.png", "band", IDENTIFICATION, "Fig. 10: 98 % band"),
         report=f"{RESULTS}/{{span_type}}/identification/identification.md",
+        model_error=f"{RESULTS}/{{span_type}}/identification/model_error.csv",
     params:
         identification=span_type_settings("identification"),
+        model_error_enabled=config.get("model_error", {}).get("enabled", False),
     log:
         f"{RESULTS}/logs/identify/{{span_type}}.log",
     benchmark:
