@@ -7,7 +7,7 @@ import pandas as pd
 from catenary.config import load_catenary
 from catenary.correction import CorrectionSettings, correct_spans, corrected_schema
 from catenary.logs import rule_logger
-from catenary.model_error.correction import run_shifts
+from catenary.model_error.correction import run_shifts, shift_columns
 from catenary.model_error.sources import ModelErrorSettings
 from catenary.pantograph import load_pantographs
 from catenary.parquet import read_table, settings_hash, write_table
@@ -45,8 +45,7 @@ def measure_budget(rows, result, run_pantograph, speed_m_s, direction, profile):
 
 corrected, convergence = correct_spans(spans, catenary, pantograph, settings, log=log, report=report,
                                        after_run=measure_budget if measure else None)
-columns = ["run_id", "section_id", "span_type", "span_id", "source"] + [f"w{i + 1}_m" for i in range(n_max)] + ["residual_m", "direct_m", "passes", "status"]
-(pd.concat(shifts, ignore_index=True) if shifts else pd.DataFrame(columns=columns)).to_parquet(
+(pd.concat(shifts, ignore_index=True) if shifts else pd.DataFrame(columns=shift_columns(n_max))).to_parquet(
     snakemake.output.model_error, index=False)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
             config_hash=settings_hash(snakemake.config), kind="corrected_section")

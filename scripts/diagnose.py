@@ -14,8 +14,6 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "GOTO
 
 from pathlib import Path  # noqa: E402
 
-import pandas as pd  # noqa: E402
-
 from catenary.config import load_catenary  # noqa: E402
 from catenary.correction import CorrectionSettings  # noqa: E402
 from catenary.diagnosis.inputs import measuring_pass_of  # noqa: E402
@@ -25,7 +23,8 @@ from catenary.diagnosis.settings import DiagnosisSettings  # noqa: E402
 from catenary.identification.report import read_corrected  # noqa: E402
 from catenary.identification.settings import IdentificationSettings  # noqa: E402
 from catenary.logs import rule_logger  # noqa: E402
-from catenary.model_error.diagnosis import budget_signatures  # noqa: E402
+from catenary.model_error.diagnosis import (BudgetSignatures, budget_signatures,  # noqa: E402
+                                            free_mean_directions, read_budget)
 from catenary.pantograph import load_pantographs  # noqa: E402
 
 log = rule_logger("diagnose", snakemake.log[0])
@@ -44,10 +43,11 @@ log.info("measuring pass: %.1f km/h, declared force %.1f N; ∂W/∂F at the dro
 run = diagnose(span_type, catenary, data.w_m, identification, settings, mast_pairs=data.mast_pairs,
                force_influence_m_n=measuring.influence_m_n, declared_force_n=measuring.force_n,
                workers=snakemake.threads, n_left_out=len(data.left_out), log=log)
-sources = None
+budget = None
 if snakemake.params.model_error_enabled:
-    sources = budget_signatures(pd.read_csv(snakemake.input.model_error_budget), span_type.name)
+    budget = BudgetSignatures(budget_signatures(read_budget(snakemake.input.model_error_budget), span_type.name),
+                              free_mean_directions(span_type, catenary, identification))
     log.info("%s: named effects checked against the correction's model-error budget (%s)", span_type.name,
-             ", ".join(sources) or "no source measured")
-write_diagnosis(run, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent), sources)
+             ", ".join(budget.sources) or "no source measured")
+write_diagnosis(run, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent), budget)
 log.info("%s: named %s in %.0f s", span_type.name, run.named or "nothing", run.time_s)

@@ -62,6 +62,8 @@ class Locate:
         Cramér–von Mises test of the distances against χ²ₙ.
     free_shift_gain, free_gaussian_gain : float
         J gain of the catch-all references.
+    residual_covariance_m2 : numpy.ndarray, shape (n, n), optional
+        Covariance of the mean residual, S/ν [m²] (S the data covariance).
     """
 
     j: float
@@ -75,6 +77,7 @@ class Locate:
     cvm_p_value: float
     free_shift_gain: float
     free_gaussian_gain: float
+    residual_covariance_m2: np.ndarray | None = None
 
     @property
     def top_eigenvalue_inside(self) -> bool:
@@ -142,7 +145,8 @@ def locate(data_w_m: np.ndarray, fit: GaussianFit, j: float, model_draws_m: np.n
     return Locate(j=float(j), residual_mean_m=r, residual_low_m=r - t * se, residual_high_m=r + t * se,
                   eigenvalues=eig, eigen_low=np.quantile(boot, 0.025, axis=0),
                   eigen_high=np.quantile(boot, 0.975, axis=0), mahalanobis_sq=d2, cvm_p_value=float(cvm.pvalue),
-                  free_shift_gain=float(0.5 * nu * whitened_r @ whitened_r), free_gaussian_gain=float(j_free - j))
+                  free_shift_gain=float(0.5 * nu * whitened_r @ whitened_r), free_gaussian_gain=float(j_free - j),
+                  residual_covariance_m2=s / nu)
 
 
 def expected_information(moments: list[tuple[np.ndarray, np.ndarray]], derivative_steps: list, n_spans: int,

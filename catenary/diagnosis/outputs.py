@@ -14,11 +14,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..model_error.diagnosis import Alike, correction_model_alike
-from ..model_error.propagation import Z95
+from ..model_error.diagnosis import Alike, BudgetSignatures, correction_model_alike
 from .candidates import CANDIDATES, CandidateParameter
 from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure
-from .runner import DiagnosisRun
+from .runner import DiagnosisRun, Step
 
 __all__ = ["CANDIDATE_COLUMNS", "DiagnosisPaths", "FINDING_COLUMNS", "candidates_table", "findings_table",
            "format_magnitude", "step_alike", "summary_markdown", "write_diagnosis"]
@@ -80,25 +79,26 @@ def format_magnitude(value: float, unit: str, se: float | None = None) -> str:
     return text + suffix
 
 
-def step_alike(step, sources: dict[str, np.ndarray] | None) -> Alike | None:
+def step_alike(step: Step, budget: BudgetSignatures | None) -> Alike | None:
     """Whether a named step's effect could equally be the correction's model
     (:mod:`catenary.model_error.diagnosis`): its shift of the mean W is the mean residual before
-    the step less the one after, the standard error from the 95 % interval before. None when the
-    step named nothing or no budget was measured."""
-    if step.verdict != "named" or step.after is None or not sources:
+    the step less the one after, with the covariance of the mean residual before it. None when
+    the step named nothing or no budget was measured."""
+    if step.verdict != "named" or step.after is None or budget is None or not budget.sources:
         return None
     b = step.before
-    se = (b.residual_high_m - b.residual_low_m) / (2.0 * Z95)
-    return correction_model_alike(b.residual_mean_m - step.after.residual_mean_m, se, sources)
+    return correction_model_alike(b.residual_mean_m - step.after.residual_mean_m, b.residual_covariance_m2,
+                                  budget.sources, budget.absorbed)
 
 
-def findings_table(run: DiagnosisRun, sources: dict[str, np.ndarray] | None = None) -> pd.DataFrame:
-    """One row per step (:data:`FINDING_COLUMNS`); ``correction_model_alike`` and
-    ``correction_model_fit`` (JSON: the sources' best combination) say whether a named effect is
-    within the correction's model-error budget ``sources`` (:func:`step_alike`)."""
+def findings_table(run: DiagnosisRun, budget: BudgetSignatures | None = None) -> pd.DataFrame:
+    """One row per step (:data:`FINDING_COLUMNS`); ``correction_model_alike`` (true, false, or
+    empty when not checked: nothing named, or no budget) and ``correction_model_fit`` (JSON: the
+    sources' best combination) say whether a named effect is within the correction's model-error
+    budget (:func:`step_alike`)."""
     rows = []
     for s in run.steps:
-        alike = step_alike(s, sources)
+        alike = step_alike(s, budget)
         lead = s.leading
         runner = next((c for c in s.candidates if c.effect == s.runner_up), None)
         after = s.after
@@ -113,7 +113,7 @@ def findings_table(run: DiagnosisRun, sources: dict[str, np.ndarray] | None = No
             top_eigenvalue_band_after=_json([after.eigen_low[0], after.eigen_high[0]]) if after else "",
             mahalanobis_cvm_p_before=s.before.cvm_p_value, mahalanobis_cvm_p_after=after.cvm_p_value if after else np.nan,
             converged=bool(lead.converged) if lead else True,
-            correction_model_alike=bool(alike.alike) if alike else False,
+            correction_model_alike=bool(alike.alike) if alike else None,
             correction_model_fit=alike.as_json() if alike else ""))
     return pd.DataFrame(rows, columns=list(FINDING_COLUMNS))
 
@@ -159,8 +159,8 @@ def _where(loc) -> list[str]:
 
 
 def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
-                     sources: dict[str, np.ndarray] | None = None) -> str:
-    """The plain-words report of a diagnosis run (``sources``: the correction's model-error
+                     budget: BudgetSignatures | None = None) -> str:
+    """The plain-words report of a diagnosis run (``budget``: the correction's model-error
     budget, :func:`step_alike`)."""
     s = run.settings
     lines = [f"# Diagnosis of span type {run.span_type}", ""]
@@ -192,20 +192,22 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
                       f"{100 * st.gap_closed_fraction:.0f} % of the free Gaussian's gain"
                       + (f"; runner-up `{runner.effect}` with a BIC higher by {runner.bic - lead.bic:.1f}." if runner
                          else "."), ""]
-            alike = step_alike(st, sources)
+            alike = step_alike(st, budget)
             if alike is not None and alike.alike:
                 combo = ", ".join(f"`{k}` {v:+.1f}" for k, v in alike.coefficients.items() if abs(v) > 0.05)
                 lines += [f"**It could equally be the correction's model of the measuring car**: the mean shift of W "
-                          f"it brings (χ² {alike.chi2_effect:.1f} against {alike.threshold:.1f}) is reproduced by the "
-                          f"model-error budget's sources within two standard uncertainties ({combo} standard "
-                          f"uncertainties; χ² left {alike.chi2_left:.1f}). Check the car (force, pantograph, speed) "
-                          "before acting on this effect.", ""]
+                          f"it brings (χ² {alike.chi2_effect:.1f} against {alike.threshold:.1f}) is reproduced by a car "
+                          f"that differs from the correction's model within two standard uncertainties of each "
+                          f"source ({combo or 'none'}; χ² left {alike.chi2_left:.1f}). Check the car (force, "
+                          "pantograph, speed) before acting on this effect.", ""]
             elif alike is not None:
-                lines += [f"Not the correction's model: no combination of the model-error budget's sources within two "
-                          f"standard uncertainties reproduces its shift of the mean W (χ² of the shift "
-                          f"{alike.chi2_effect:.1f}, left {alike.chi2_left:.1f}, against {alike.threshold:.1f}"
-                          + ("; the effect acts on the spread of W, which a systematic cannot mimic)."
-                             if alike.chi2_effect <= alike.threshold else ")."), ""]
+                lines += [f"Checked against the correction's model-error budget: "
+                          + ("its shift of the mean W is not significant (χ² "
+                             f"{alike.chi2_effect:.1f} against {alike.threshold:.1f}), no ground to suspect a "
+                             "systematic of the measuring car." if alike.chi2_effect <= alike.threshold else
+                             f"no combination of the sources within two standard uncertainties reproduces its "
+                             f"shift of the mean W (χ² left {alike.chi2_left:.1f} of {alike.chi2_effect:.1f}, "
+                             f"against {alike.threshold:.1f})."), ""]
             a = st.after
             lines += [f"After adding it: λ₁ = {a.eigenvalues[0]:.2f} "
                       f"({'inside' if a.top_eigenvalue_inside else 'still outside'} [{a.eigen_low[0]:.2f}, "
@@ -258,13 +260,12 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
     return "\n".join(lines)
 
 
-def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, sources: dict[str, np.ndarray] | None = None) -> None:
-    """Write every output of one span type's diagnosis (``sources``: the correction's model-error
-    budget per source, :func:`catenary.model_error.diagnosis.budget_signatures`; None: not
-    measured)."""
+def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, budget: BudgetSignatures | None = None) -> None:
+    """Write every output of one span type's diagnosis (``budget``: the correction's model-error
+    budget, :class:`catenary.model_error.diagnosis.BudgetSignatures`; None: not measured)."""
     for p in paths.__dict__.values():
         Path(p).parent.mkdir(parents=True, exist_ok=True)
-    findings_table(run, sources).to_csv(paths.findings, index=False, float_format="%.10g")
+    findings_table(run, budget).to_csv(paths.findings, index=False, float_format="%.10g")
     candidates_table(run).to_csv(paths.candidates, index=False, float_format="%.10g")
     steps = [{"step": s.step, "model_effects": list(s.model_effects), "verdict": s.verdict, "effect": s.effect,
               "runner_up": s.runner_up, "before": s.before.as_dict(), "after": s.after.as_dict() if s.after else None}
@@ -280,4 +281,4 @@ def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, sources: dict[str,
     score_figure(run, paths.scores, title)
     Path(paths.summary).write_text(summary_markdown(
         run, figures=tuple(Path(p).name for p in (paths.residuals, paths.eigenvalues, paths.qq, paths.scores)),
-        sources=sources))
+        budget=budget))

@@ -61,7 +61,7 @@ def write_identification(run: IdentificationRun, paths: IdentificationPaths, *, 
     for p in (paths.s_opt, paths.trace, paths.estimators, paths.normality, paths.band, paths.report):
         Path(p).parent.mkdir(parents=True, exist_ok=True)
     st = run.span_type.name
-    s_opt_table(run.result, run.profiles, run.model_error).to_csv(paths.s_opt, index=False, float_format="%.17g")
+    s_opt_table(run.result, run.profiles, run.model_error, run.settings.profile_level).to_csv(paths.s_opt, index=False, float_format="%.17g")
     if paths.model_error is not None:
         budget = run.model_error if run.model_error is not None else pd.DataFrame(columns=MODEL_ERROR_COLUMNS)
         budget.to_csv(paths.model_error, index=False, float_format="%.17g")

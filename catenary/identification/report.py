@@ -490,7 +490,7 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     if w_shifts and w_shifts.w_m and result.status == "ok":
         problem = ScaledProblem.for_inputs(lik, start, s.free_mean_names(n), random)
         moved = parameter_shifts(problem, result.theta_opt, result.theta_covariance, w_shifts.w_m, s.hessian_step)
-        budget = budget_table(problem, result.theta_opt, result.means, result.sigmas, [r.name for r in start], moved)
+        budget = budget_table(problem, result.means, result.sigmas, [r.name for r in start], moved)
         for row in budget.itertuples():
             log.info("%s: model error: %s %s = %.6g, systematic %.3g (dominant: %s)", span_type.name, row.parameter,
                      row.statistic, row.estimate, row.systematic, row.dominant_source)
@@ -546,7 +546,7 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
 
 
 def s_opt_table(result: IdentificationResult, profiles: list[ProfileInterval] = (),
-                model_error: pd.DataFrame | None = None) -> pd.DataFrame:
+                model_error: pd.DataFrame | None = None, profile_level: float = 0.95) -> pd.DataFrame:
     """s_opt with standard errors: columns ``parameter``, ``mu``, ``sigma``, ``mu_se``, ``sigma_se``,
     ``mu_fixed`` (SI, in the unit of each parameter's name; se 0 where not identified, NaN where
     the information is singular), ``mu_variance_widening`` and ``sigma_variance_widening`` (the
@@ -571,7 +571,8 @@ def s_opt_table(result: IdentificationResult, profiles: list[ProfileInterval] = 
             row[f"{statistic}_profile_high"] = p.high if p else np.nan
         sigma = by_key.get((row["parameter"], "sigma"))
         row["no_spread_detected"] = bool(sigma.no_spread_detected) if sigma else False
-    return total_intervals(pd.DataFrame(rows, columns=list(S_OPT_COLUMNS[:-6])), model_error)[list(S_OPT_COLUMNS)]
+    return total_intervals(pd.DataFrame(rows, columns=list(S_OPT_COLUMNS[:-6])), model_error,
+                           profile_level)[list(S_OPT_COLUMNS)]
 
 
 def trace_schema(parameters: tuple[str, ...] | list[str]) -> pa.Schema:
@@ -697,7 +698,7 @@ def markdown_report(run: IdentificationRun, *, source: str = "corrected.parquet"
                          f"[{_fmt(p.low * scale, unit)}, {_fmt(p.high * scale, unit)}] | "
                          f"[{_fmt(lo * scale, unit)}, {_fmt(hi * scale, unit)}] | {unit} | {verdict} |")
         lines += ["", f"{sum(p.n_evaluations for p in run.profiles)} J evaluations, {run.profile_time_s:.1f} s.", ""]
-    lines += model_error_lines(run.model_error, s_opt_table(r, run.profiles, run.model_error),
+    lines += model_error_lines(run.model_error, s_opt_table(r, run.profiles, run.model_error, s.profile_level),
                                run.model_error_shifts, run.data_w_m.shape[0], _label)
     lines += ["## Run", "",
               "| item | value |", "|---|---|",

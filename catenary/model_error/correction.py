@@ -50,7 +50,8 @@ from ..section import Section
 from ..static import StaticModel
 from .sources import Source, perturbed
 
-__all__ = ["RESOLUTION_FLOOR_M", "STAGNATION", "UNSETTLED", "Shift", "run_shifts", "shifts_table", "w_shifts"]
+__all__ = ["RESOLUTION_FLOOR_M", "STAGNATION", "UNSETTLED", "Shift", "run_shifts", "shift_columns", "shifts_table",
+           "w_shifts"]
 
 #: A pass that leaves more than this fraction of the previous pass's span-common residual has
 #: stopped settling: the iteration stops there and keeps its best model. Measured on the small
@@ -62,13 +63,13 @@ STAGNATION = 0.9
 #: A shift whose residual stays above this fraction of its source's direct effect, and above
 #: :data:`RESOLUTION_FLOOR_M`, is not given (its status says so): the moved model does not solve
 #: the correction's equation for it. Measured on the small campaign: force 0.004 of 0.36 mm,
-#: head mass and catenary damping 0.005–0.013 of 0.011–0.024 mm (the floor), speed +2.5 % 0.16
-#: of 0.17 mm on N2 — a pattern alternating from dropper to dropper that the pantograph's
+#: head mass and catenary damping 0.005–0.013 of 0.011–0.024 mm (the floor), speed +1 % 0.062
+#: of 0.062 mm on N2 — a pattern alternating from dropper to dropper that the pantograph's
 #: response to a static change of height cannot reproduce.
 UNSETTLED = 0.5
 
 #: Residual below which a shift is given whatever its direct effect [m]: a systematic of
-#: 0.02 mm per dropper moves T_MW's mean by ≈ 4 N, a tenth of its standard error on 20 spans.
+#: 0.02 mm per dropper moves T_MW's mean by ≈ 4 N, 2 % of its standard error on 20 spans.
 RESOLUTION_FLOOR_M = 2e-5
 
 
@@ -196,6 +197,12 @@ def w_shifts(section: Section, measured: np.ndarray, catenary: Catenary, pantogr
     return out
 
 
+def shift_columns(n_max: int) -> list[str]:
+    """Columns of :func:`run_shifts`' table for spans of at most ``n_max`` droppers."""
+    return (["run_id", "section_id", "span_type", "span_id", "source"] + [f"w{i + 1}_m" for i in range(n_max)]
+            + ["residual_m", "direct_m", "passes", "status"])
+
+
 def _anderson_step(xs: list, fs: list, x: np.ndarray, f: np.ndarray, memory: int) -> np.ndarray:
     """Next move of the model by Anderson mixing of the last ``memory`` passes: the plain step
     ``x + f`` corrected by the combination of past steps that best cancels the gap ``f``, as if
@@ -238,6 +245,8 @@ def run_shifts(rows: pd.DataFrame, result, catenary: Catenary, pantograph: Panto
     is not given: the correction failed on the run, a perturbed pass did not converge, or the
     residual stayed above :data:`UNSETTLED` of the direct effect and above
     :data:`RESOLUTION_FLOOR_M`)."""
+    if not sources:
+        return pd.DataFrame(columns=shift_columns(n_max))
     measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
     span_ids = rows["span_id"].astype(str).tolist()
     failed = ""

@@ -31,6 +31,7 @@ from typing import Mapping
 
 import numpy as np
 import pandas as pd
+from scipy.stats import norm
 
 from ..identification.fit import ScaledProblem
 
@@ -152,8 +153,8 @@ def parameter_shifts(problem: ScaledProblem, theta_opt: np.ndarray, covariance: 
     return out
 
 
-def budget_table(problem: ScaledProblem, theta_opt: np.ndarray, means: np.ndarray, sigmas: np.ndarray,
-                 names: list[str], theta_shifts: Mapping[str, np.ndarray]) -> pd.DataFrame:
+def budget_table(problem: ScaledProblem, means: np.ndarray, sigmas: np.ndarray, names: list[str],
+                 theta_shifts: Mapping[str, np.ndarray]) -> pd.DataFrame:
     """Per identified parameter and statistic: ``parameter``, ``statistic`` ("mu"/"sigma"),
     ``estimate``, ``shift_<source>`` (the parameter's shift for one standard uncertainty of the
     source, in the parameter's unit), ``systematic`` (their root sum of squares) and
@@ -176,20 +177,23 @@ def budget_table(problem: ScaledProblem, theta_opt: np.ndarray, means: np.ndarra
     return pd.DataFrame(rows, columns=[*MODEL_ERROR_COLUMNS[:3], *shifts, *MODEL_ERROR_COLUMNS[3:]])
 
 
-def total_intervals(s_opt: pd.DataFrame, budget: pd.DataFrame | None) -> pd.DataFrame:
+def total_intervals(s_opt: pd.DataFrame, budget: pd.DataFrame | None, profile_level: float = 0.95) -> pd.DataFrame:
     """``s_opt`` with the 95 % total intervals: ``mu_total_low``, ``mu_total_high``,
     ``sigma_total_low``, ``sigma_total_high`` (module docstring) and ``mu_systematic``,
     ``sigma_systematic`` (one standard uncertainty from the correction's model). Without a
     budget (``model_error`` off) these are NaN: a statistical interval is not a total one.
-    Parameters not identified (a fixed mean) get NaN."""
+    Parameters not identified (a fixed mean) get NaN. A profile interval at another
+    ``profile_level`` than 95 % has each side rescaled to 95 % (by the ratio of the normal
+    quantiles) before it is widened."""
+    to_95 = Z95 / float(norm.ppf(0.5 + 0.5 * profile_level))
     out = s_opt.copy()
     for statistic in ("mu", "sigma"):
         est = out[statistic].to_numpy(dtype=float)
         se = out[f"{statistic}_se"].to_numpy(dtype=float)
         low = out[f"{statistic}_profile_low"].to_numpy(dtype=float)
         high = out[f"{statistic}_profile_high"].to_numpy(dtype=float)
-        low = np.where(np.isfinite(low), low, est - Z95 * se)
-        high = np.where(np.isfinite(high), high, est + Z95 * se)
+        low = np.where(np.isfinite(low), est - to_95 * (est - low), est - Z95 * se)
+        high = np.where(np.isfinite(high), est + to_95 * (high - est), est + Z95 * se)
         sys = np.full(est.size, np.nan)
         if budget is not None and len(budget):
             rows = budget[budget["statistic"] == statistic].set_index("parameter")["systematic"]

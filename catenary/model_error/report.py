@@ -38,8 +38,8 @@ def model_error_lines(budget: pd.DataFrame | None, s_opt: pd.DataFrame, shifts, 
     sources = [c.removeprefix("shift_") for c in budget.columns if c.startswith("shift_")]
     lines += ["Each source of the correction's model (config `model_error`) moved by one standard uncertainty "
               "moves every corrected W (`correction/model_error.parquet`) and so every identified parameter "
-              "(linearised at s_opt through the likelihood's curvature; within 2 % of a full "
-              "re-identification where tested). The sources are independent and shared by every span: their "
+              "(linearised at s_opt through the likelihood's curvature; within 1 % of a full "
+              "re-identification on T_MW's mean and 0.01 standard errors on every σ where tested). The sources are independent and shared by every span: their "
               "root sum of squares is the parameter's systematic standard uncertainty, and the 95 % total "
               "interval widens each side of the statistical one (profile, else ±1.96 se) in quadrature with "
               "1.96 times it. Machine-readable: `model_error.csv`, and `s_opt.csv` (`*_systematic`, "
@@ -57,8 +57,8 @@ def model_error_lines(budget: pd.DataFrame | None, s_opt: pd.DataFrame, shifts, 
         unit, scale = (mu_unit, mu_scale) if r.statistic == "mu" else (sd_unit, sd_scale)
         low = table.loc[r.parameter, f"{r.statistic}_total_low"] * scale
         high = table.loc[r.parameter, f"{r.statistic}_total_high"] * scale
-        shifts = " | ".join(f"{getattr(r, f'shift_{s}') * scale:+.3g}" for s in sources)
+        moved = " | ".join(f"{getattr(r, f'shift_{s}') * scale:+.3g}" for s in sources)
         total = f"[{low:.5g}, {high:.5g}]" if np.isfinite(low) else "–"
-        lines.append(f"| {name} | {'μ' if r.statistic == 'mu' else 'σ'} | {r.estimate * scale:.5g} | {shifts} | "
+        lines.append(f"| {name} | {'μ' if r.statistic == 'mu' else 'σ'} | {r.estimate * scale:.5g} | {moved} | "
                      f"{r.systematic * scale:.3g} | {total} | {r.dominant_source} | {unit} |")
     return lines + [""]
