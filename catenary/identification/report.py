@@ -495,8 +495,9 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
             log.info("%s: model error: %s %s = %.6g, systematic %.3g (dominant: %s)", span_type.name, row.parameter,
                      row.statistic, row.estimate, row.systematic, row.dominant_source)
     elif w_shifts:
-        log.warning("%s: no model-error budget of the parameters (identification status %s)", span_type.name,
-                    result.status)
+        log.warning("%s: no model-error budget of the parameters (%s)", span_type.name,
+                    f"identification status {result.status}" if w_shifts.w_m else
+                    "no source has a measured shift: " + "; ".join(f"{k}: {v}" for k, v in w_shifts.unmeasured.items()))
     t_profile = time.perf_counter()
     profiled = s.profile_names(n)
     profiles = []
