@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from .model_error.propagation import Z95
+
 __all__ = ["correction_round_trip", "identification_round_trip", "match_spans", "projection_round_trip",
            "realized_truth", "registration_round_trip", "repeatability_round_trip"]
 
@@ -303,7 +305,7 @@ def identification_round_trip(s_opt: pd.DataFrame, corrected: pd.DataFrame, trut
                 low = float(getattr(r, f"{statistic}_{kind}_low", np.nan))
                 high = float(getattr(r, f"{statistic}_{kind}_high", np.nan))
                 if kind == "profile" and not np.isfinite(low):      # not profiled: the Wald interval
-                    low, high = float(estimate) - 1.959964 * float(se), float(estimate) + 1.959964 * float(se)
+                    low, high = float(estimate) - Z95 * float(se), float(estimate) + Z95 * float(se)
                 ends.update({f"{kind}_low": low, f"{kind}_high": high, f"inside_{kind}": bool(low <= true <= high)})
             rows.append({"parameter": r.parameter, "statistic": statistic, "estimate": float(estimate),
                          "standard_error": float(se), "realized": true,

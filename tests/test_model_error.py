@@ -6,12 +6,12 @@ import pytest
 from catenary.correction import CorrectionSettings, correct_spans
 from catenary.errors import ConfigError
 from catenary.model_error.correction import run_shifts
+from catenary.model_error.propagation import Z95
 from catenary.model_error.sources import ModelErrorSettings, Source
 
 from .test_correction import measured_run, measuring, true_line  # noqa: F401  (measuring: a fixture)
 
 W = [f"w{i}_m" for i in range(1, 10)]
-Z = 1.959963984540054            # two-sided 95 % normal quantile
 
 
 def _corrected(catenary, n2, pantograph, mode, sources, tolerance_m, time_step_s=0.005, max_iterations=5):
@@ -169,7 +169,7 @@ def test_total_intervals_widen_the_profile_interval_in_quadrature():
     # no profile, widens ±1.96 se; no budget → NaN (a statistical interval is not a total one).
     import pandas as pd
 
-    from catenary.model_error.propagation import Z95, total_intervals
+    from catenary.model_error.propagation import total_intervals
 
     s_opt = pd.DataFrame({"parameter": ["t"], "mu": [100.0], "sigma": [5.0], "mu_se": [8.0], "sigma_se": [1.0],
                           "mu_fixed": [False], "mu_profile_low": [90.0], "mu_profile_high": [120.0],
@@ -247,7 +247,7 @@ def test_total_interval_covers_a_planted_force_the_statistical_one_misses(catena
     for name in ("messenger_tension_n", "system_height_m"):
         row = table.loc[name]
         truth = clean.result.estimates[[s.name for s in start].index(name)].mu   # what the true W give
-        stat = (row.mu - Z * row.mu_se, row.mu + Z * row.mu_se)
+        stat = (row.mu - Z95 * row.mu_se, row.mu + Z95 * row.mu_se)
         assert not stat[0] <= truth <= stat[1], (name, stat, truth)
         assert row.mu_total_low <= truth <= row.mu_total_high, (name, row.mu_total_low, row.mu_total_high, truth)
 
