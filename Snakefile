@@ -32,6 +32,7 @@ include: "workflow/rules/correction.smk"
 include: "workflow/rules/inversion.smk"
 include: "workflow/rules/identification.smk"
 include: "workflow/rules/diagnosis.smk"
+include: "workflow/rules/maintenance.smk"
 include: "workflow/rules/contact_force.smk"
 include: "workflow/rules/report.smk"
 

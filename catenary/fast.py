@@ -26,7 +26,17 @@ The condensed operator is computed exactly at Chebyshev nodes in ``1/T_MW`` (and
 when the contact-wire tension varies) and interpolated between them; the interpolation error
 is checked against exact condensations in the tests (< 1e-8 m). Everything else is whole-array
 NumPy: no Python loop over samples. Samples whose dropper forces come out negative would have
-slack droppers: they are flagged, and their W is not the static solution.
+slack droppers: they are flagged, and their W is not the static solution — unless
+``evaluate(..., slack="solve")``, which then solves them (below).
+
+Slack droppers
+--------------
+A dropper in compression goes slack: its force is zero and its compatibility equation drops
+out. With ``K = (D + C_cw + C_mw)⁻¹`` and the all-taut forces ``F``, the forces with the set S
+slack are ``F_T' = F_T − K_TS K_SS⁻¹ F_S`` (the Schur complement of the condensed system) and
+``F_S' = 0``; S grows until no taut dropper is in compression. A dropper once slack stays slack:
+exact when the slack set only grows (one long dropper, or neighbours unloaded by it), which the
+tests check against the FE model's active set (:mod:`catenary.static`).
 """
 
 from __future__ import annotations
@@ -359,7 +369,7 @@ class FastSpanModel:
                  cw_offset_m: np.ndarray | float | None = None, cw_wear_fraction: np.ndarray | float | None = None,
                  cw_height_offset_left_m: np.ndarray | float | None = None,
                  cw_height_offset_right_m: np.ndarray | float | None = None,
-                 chunk_size: int = 8192) -> FastResult:
+                 chunk_size: int = 8192, slack: str = "flag") -> FastResult:
         """W, dropper forces and slack flags for N samples.
 
         Parameters
@@ -381,6 +391,10 @@ class FastSpanModel:
             Raise of the left / right steady arm, MW with it [m] (an ``extended`` model; default 0).
         chunk_size : int
             Samples processed at once (bounds the temporary memory).
+        slack : {"flag", "solve"}
+            ``"flag"``: a sample with a dropper in compression is flagged and its W is the
+            all-taut one (not a static solution). ``"solve"``: its slack droppers are solved
+            (module docstring); ``slack`` in the result still marks such samples.
 
         Raises
         ------
@@ -418,12 +432,14 @@ class FastSpanModel:
         if np.any(delta < lo - 1e-12) or np.any(delta > hi + 1e-12) or np.any(~np.isfinite(delta)):
             raise OutOfModelRangeError(f"cw_offset_m: values must lie in the model's bounds [{lo}, {hi}] m "
                                        f"(got {np.nanmin(delta)}…{np.nanmax(delta)})")
+        if slack not in ("flag", "solve"):
+            raise ValueError(f"slack: expected 'flag' or 'solve', got {slack!r}")
         w = np.empty((n_samples, self.n_droppers))
         force = np.empty_like(w)
         for start in range(0, n_samples, chunk_size):
             sl = slice(start, min(start + chunk_size, n_samples))
             force[sl], w[sl] = self._evaluate_chunk(lengths[sl], t_mw[sl], dh_l[sl], dh_r[sl], t_cw[sl], delta[sl],
-                                                    loads[sl])
+                                                    loads[sl], solve_slack=slack == "solve")
         return FastResult(w_m=w, dropper_force_n=force, slack=np.any(force <= 0.0, axis=1))
 
     def profile_map(self, x_m: np.ndarray) -> "ProfileMap":
@@ -444,7 +460,7 @@ class FastSpanModel:
         interpolant = fit_chebyshev(profile, *self._w_box, self._w_degrees)
         return ProfileMap(x_m=x, operator=_StackedMap(interpolant, x.size, 2 * self.n_droppers + 3))
 
-    def _evaluate_chunk(self, lengths, t_mw, dh_l, dh_r, t_cw, delta, loads):
+    def _evaluate_chunk(self, lengths, t_mw, dh_l, dh_r, t_cw, delta, loads, solve_slack=False):
         ones = np.ones((lengths.shape[0], 1))
         points = np.column_stack([1.0 / t_mw, 1.0 / t_cw, delta])
         offsets = delta[:, None] if self.variable_offset else self.cw_clamp_offset_m
@@ -456,8 +472,35 @@ class FastSpanModel:
         f0 = self._force(points, np.column_stack([rest, dh_l, dh_r, ones, loads]))
         # One fixed-point step for the dropper compliance deviation from the reference lengths.
         f = f0 - self._compliance(points, (compliance_length - self.reference_lengths_m) / self._ea * f0)
+        if solve_slack:
+            f = self._slack_forces(points, f)
         w = self._deflection(points, np.column_stack([f, lengths, dh_l, dh_r, ones, loads]))
         return f, w
+
+    def _slack_forces(self, points: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """Forces with the droppers in compression slack (module docstring), rows needing it only."""
+        rows = np.flatnonzero(np.any(f <= 0.0, axis=1))
+        if rows.size == 0:
+            return f
+        n = self.n_droppers
+        k = np.stack([self._compliance(points[rows], np.broadcast_to(e, (rows.size, n))) for e in np.eye(n)],
+                     axis=2)                                                     # (m, n, n): K[:, :, j] = K e_j
+        full = f[rows]
+        slack = full <= 0.0
+        for _ in range(n):
+            p = slack.astype(float)
+            # (P K P + I − P) y = P F: y_S solves K_SS y_S = F_S, y_T = 0; F' = F − K P y.
+            m = p[:, :, None] * k * p[:, None, :] + np.eye(n) * (1.0 - p)[:, None, :]
+            y = np.linalg.solve(m, (p * full)[:, :, None])[:, :, 0]
+            out = full - np.einsum("mij,mj->mi", k, p * y)
+            out[slack] = 0.0
+            grow = (out < 0.0) & ~slack
+            if not grow.any():
+                break
+            slack |= grow
+        f = f.copy()
+        f[rows] = out
+        return f
 
 
 @dataclass(frozen=True)

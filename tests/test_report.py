@@ -34,10 +34,12 @@ SPAN_TYPES = ("N2", "N3")
 TABLES = ["nominal/dropper_table.csv", "sensitivity/summary.csv", "dynamics/statistics.csv",
           "tension_impact/summary.csv", "inversion/table1.csv", "identification/s_opt.csv",
           "diagnosis/findings.csv", "diagnosis/candidates.csv", "contact_force/summary.csv",
-          "contact_force/nominal.csv", "contact_force/tolerance.csv", "contact_force/sensitivity.csv"]
+          "contact_force/nominal.csv", "contact_force/tolerance.csv", "contact_force/sensitivity.csv",
+          "maintenance/maintenance.csv"]
 LINE_TABLES = ["spans_report.csv", "correction/convergence.csv", "correction/summary.csv",
                "validation/projection_round_trip.csv", "validation/correction_check.csv",
-               "validation/identification_check.csv", "validation/diagnosis_check.csv"]
+               "validation/identification_check.csv", "validation/diagnosis_check.csv",
+               "validation/maintenance_check.csv"]
 
 
 def _variable(text: str, name: str) -> dict:
@@ -65,7 +67,7 @@ def test_every_figure_and_table_is_in_the_report_with_a_caption(report):
         assert len(re.sub("<[^>]+>", "", entry["caption"]).split()) >= 15, (path, entry["caption"])
     # filed by span type and stage; the line's results and the campaign checks apart
     for span_type in SPAN_TYPES:
-        assert {k.split()[0] for k in categories[span_type]} == {"1", "4", "5", "6", "7"}
+        assert {k.split()[0] for k in categories[span_type]} == {"1", "4", "5", "6", "7", "8"}
     assert {"Whole recording", "Validation against the campaign's truth"} <= set(categories)
 
 

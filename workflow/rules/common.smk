@@ -180,7 +180,8 @@ def measured_outputs(wildcards=None, contact_force=True):
     """Per-type outputs of the measured span types: inversion, identification, diagnosis and,
     unless ``contact_force`` is false, the contact-force study; with the campaign checks."""
     types = measured_span_types()
-    outputs = (inversion_outputs(types) + identification_outputs(types) + diagnosis_outputs(types))
+    outputs = (inversion_outputs(types) + identification_outputs(types) + diagnosis_outputs(types)
+               + maintenance_outputs(types))
     if contact_force:
         outputs += contact_force_outputs(types)
     return outputs + [FRONT_PAGE]
@@ -215,6 +216,19 @@ def diagnosis_outputs(span_types=SPAN_TYPES):
     )
     if CAMPAIGN_RUN:
         outputs.append(f"{RESULTS}/validation/diagnosis_check.csv")
+    return outputs
+
+
+def maintenance_outputs(span_types=SPAN_TYPES):
+    """Per-span posteriors and the maintenance list (workflow/rules/maintenance.smk) per span
+    type, with the check against the truth on campaign runs; none when `maintenance.enabled` is
+    false."""
+    if not (config.get("maintenance") or {}).get("enabled", True):
+        return []
+    outputs = expand([f"{RESULTS}/{{span_type}}/maintenance/{name}"
+                      for name in ("posterior.parquet", "maintenance.csv", "chainage.png")], span_type=span_types)
+    if CAMPAIGN_RUN:
+        outputs.append(f"{RESULTS}/validation/maintenance_check.csv")
     return outputs
 
 

@@ -1,0 +1,66 @@
+"""Figure of the maintenance stage (matplotlib, Agg backend): plotting only.
+
+:func:`chainage_figure` — along the chainage, each span's most likely deviation (the dropper
+most likely out of tolerance: its posterior mean less nominal, with the 90 % interval), the
+tolerance band, and the listed droppers marked.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from ..plots import save_figure  # noqa: E402
+
+__all__ = ["chainage_figure"]
+
+MM = 1e3
+
+
+def chainage_figure(posterior: pd.DataFrame, threshold: float, path: str | Path, title: str) -> Path:
+    """Per span, the dropper most likely out of tolerance against its span's start chainage.
+
+    Parameters
+    ----------
+    posterior : pandas.DataFrame
+        ``posterior.parquet`` of one span type (:data:`~.runner.POSTERIOR_COLUMNS`).
+    threshold : float
+        The list's probability threshold (listed droppers drawn in red).
+    path : str or pathlib.Path
+        PNG file written.
+    """
+    droppers = posterior[posterior["input"].str.startswith("dropper_")]
+    top = droppers.sort_values("p_out_of_tolerance", ascending=False, kind="stable").groupby("span_id").head(1)
+    top = top.sort_values("start_chainage_m")
+    x = top["start_chainage_m"].to_numpy(dtype=float)
+    if not np.all(np.isfinite(x)):
+        x = np.arange(len(top), dtype=float)
+    dev = MM * (top["mean"] - top["nominal"]).to_numpy()
+    lo = MM * (top["q05"] - top["nominal"]).to_numpy()
+    hi = MM * (top["q95"] - top["nominal"]).to_numpy()
+    listed = top["p_out_of_tolerance"].to_numpy() > threshold
+    half = MM * float((top["upper"] - top["nominal"]).iloc[0]) if len(top) else np.nan
+    fig, ax = plt.subplots(figsize=(10, 4))
+    for mask, colour, label in ((~listed, "0.35", "most likely deviation of the span, 90 % interval"),
+                                (listed, "tab:red", f"listed: P(out of tolerance) > {threshold:g}")):
+        if mask.any():
+            ax.errorbar(x[mask], dev[mask], yerr=[dev[mask] - lo[mask], hi[mask] - dev[mask]], fmt="o", ms=3,
+                        color=colour, ecolor=colour, elinewidth=0.8, capsize=0, label=label)
+    if np.isfinite(half):
+        ax.axhspan(-half, half, color="tab:green", alpha=0.1, label=f"tolerance ±{half:g} mm")
+    ax.axhline(0.0, color="k", lw=0.5)
+    for row, xi, d in zip(top.itertuples(), x, dev):
+        if row.p_out_of_tolerance > threshold:
+            ax.annotate(row.input.split("_")[1], (xi, d), textcoords="offset points", xytext=(4, 4), fontsize=7,
+                        color="tab:red")
+    ax.set_xlabel("span start chainage [m]")
+    ax.set_ylabel("dropper length − nominal [mm]")
+    ax.set_title(title)
+    ax.legend(loc="upper right", fontsize=8)
+    return save_figure(fig, path)

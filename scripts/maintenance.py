@@ -1,0 +1,43 @@
+"""Rule maintenance: each span's posterior given its W and the maintenance list, one span type."""
+
+import pandas as pd
+
+from catenary.config import load_catenary
+from catenary.identification.report import read_corrected
+from catenary.identification.settings import IdentificationSettings
+from catenary.logs import rule_logger
+from catenary.maintenance.figures import chainage_figure
+from catenary.maintenance.runner import run_maintenance
+from catenary.maintenance.settings import MaintenanceSettings
+from catenary.model_error.propagation import span_shifts
+from catenary.maintenance.outputs import write_maintenance
+from catenary.parquet import read_table, settings_hash
+from catenary.repeatability import read_noise
+
+log = rule_logger("maintenance", snakemake.log[0])
+catenary = load_catenary(snakemake.input.catenary)
+span_type = catenary.span_type(snakemake.wildcards.span_type)
+identification = IdentificationSettings.from_mapping(snakemake.params.identification)
+settings = MaintenanceSettings.from_mapping(snakemake.params.maintenance)
+log.info("settings: %s", settings.as_dict())
+repeatability_m2, flagged = read_noise(snakemake.input.noise)
+data = read_corrected(snakemake.input.corrected, span_type, flagged)
+corrected = read_table(snakemake.input.corrected)
+w_shifts = None
+if snakemake.params.model_error_enabled:
+    w_shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
+                           span_type.n_droppers, corrected)
+run = run_maintenance(span_type, catenary, data, corrected, pd.read_csv(snakemake.input.s_opt), identification,
+                      settings, one_run_m2=identification.noise_covariance_m2(span_type.n_droppers, repeatability_m2),
+                      w_shifts=w_shifts)
+log.info("%s: %d spans, W error %s; posterior in %.1f s", span_type.name, data.w_m.shape[0], run.noise, run.time_s)
+marked = run.posterior.drop_duplicates("span_id").query("status != 'ok'")
+for row in marked.itertuples():
+    log.warning("%s: posterior %s (effective samples %.0f of %d)", row.span_id, row.status, row.effective_samples,
+                settings.n_samples)
+write_maintenance(run, snakemake.output.posterior, snakemake.output.listed, config_hash=settings_hash(snakemake.config),
+                  noise=run.noise)
+chainage_figure(run.posterior, settings.threshold, snakemake.output.figure,
+                f"{span_type.name}: dropper most likely out of tolerance per span")
+log.info("%s: %d span input(s) listed (P(out of tolerance) > %g)", span_type.name, len(run.listed),
+         settings.threshold)

@@ -1,0 +1,51 @@
+MAINTENANCE = "8 Maintenance (per-span posteriors)"
+
+
+rule maintenance:
+    """Each span's posterior given its corrected W with the identified laws as the prior (the
+    paper's Bayesian step), the probability of each input lying outside tolerance, and the list of
+    spans and inputs to act on."""
+    input:
+        corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
+        s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
+        noise=f"{RESULTS}/{{span_type}}/repeatability/noise.json",
+        model_error=f"{RESULTS}/correction/model_error.parquet",
+        catenary=config["catenary"],
+    output:
+        posterior=f"{RESULTS}/{{span_type}}/maintenance/posterior.parquet",
+        listed=reported(f"{RESULTS}/{{span_type}}/maintenance/maintenance.csv", "maintenance_list", MAINTENANCE, "Maintenance list"),
+        figure=reported(f"{RESULTS}/{{span_type}}/maintenance/chainage.png", "maintenance_chainage", MAINTENANCE, "Deviations along the line"),
+    params:
+        identification=span_type_settings("identification"),
+        maintenance=config.get("maintenance"),
+        model_error_enabled=config.get("model_error", {}).get("enabled", False),
+    log:
+        f"{RESULTS}/logs/maintenance/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/maintenance/{{span_type}}.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/maintenance.py"
+
+
+rule maintenance_check:
+    """Validation only: per-span posteriors against the campaign's truth (90 % coverage per
+    input, against the dropper-only inversion) and the list's precision and recall."""
+    input:
+        posterior=expand(f"{RESULTS}/{{span_type}}/maintenance/posterior.parquet", span_type=SPAN_TYPES),
+        inversion=expand(f"{RESULTS}/{{span_type}}/inversion/droppers.parquet", span_type=SPAN_TYPES),
+        truth=f"{RESULTS}/campaign/truth.parquet",
+    output:
+        coverage=reported(f"{RESULTS}/validation/maintenance_check.csv", "validation_maintenance", MAINTENANCE, "Posteriors vs truth", category=VALIDATION),
+        roc=f"{RESULTS}/validation/maintenance_list_check.csv",
+    params:
+        span_types=SPAN_TYPES,
+    log:
+        f"{RESULTS}/logs/maintenance_check.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/maintenance_check.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/maintenance_check.py"
