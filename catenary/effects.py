@@ -9,7 +9,7 @@ its sampling design. Truth and candidate can therefore never drift apart.
 Each effect acts on a table of per-span parameters (:class:`SpanParameters`), is parameterised
 by magnitudes named in the truth file (SI units), vanishes at its null magnitudes (all 0), and
 takes standard normal draws of one kind (:attr:`Effect.draw`): one per span, per section, per
-mast, or none.
+mast, per dropper, or none.
 
 ``messenger_tension_variability`` (``std_n``; per span)
     Each span's MW tension deviates from its section's regulated tension by a zero-mean
@@ -47,6 +47,15 @@ mast, or none.
     droppers carry less, the MW sags less. Its signature is close to a T_MW change: both
     change the MW's load-to-tension ratio.
 
+``dropper_faults`` (``fraction``, ``min_m``, ``max_m``; per dropper)
+    A fraction of the droppers made or fitted wrong: each dropper independently, with
+    probability ``fraction``, is longer or shorter (equally likely) than its drawn length by a
+    uniform ``min_m``–``max_m``. From its normal score ``z``: ``u = Φ(z) < fraction`` marks it,
+    ``v = u / fraction`` gives the sign (``v < ½``: longer) and the size (``2v mod 1``), each
+    uniform and independent of the others. A central dropper a centimetre or two too long goes
+    slack. Not a diagnosis candidate (a few droppers do not change the laws' form): the
+    maintenance stage looks for it, span by span (:mod:`catenary.maintenance`).
+
 All magnitudes are SI. Effects are applied in the order listed in the truth file.
 """
 
@@ -57,11 +66,12 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from scipy import special
 
 __all__ = ["DRAW_KINDS", "EFFECTS", "Effect", "SpanParameters", "draws_for", "plant"]
 
 #: What one standard normal draw of an effect belongs to.
-DRAW_KINDS = ("span", "section", "mast")
+DRAW_KINDS = ("span", "section", "mast", "dropper")
 
 
 @dataclass
@@ -187,6 +197,17 @@ def contact_wire_wear(p: SpanParameters, z: np.ndarray, *, mean_fraction: float,
     p.cw_wear_fraction = p.cw_wear_fraction + mean_fraction + std_fraction * z
 
 
+def dropper_faults(p: SpanParameters, z: np.ndarray, *, fraction: float, min_m: float, max_m: float) -> None:
+    if not (0.0 <= fraction < 1.0 and 0.0 <= min_m <= max_m):
+        raise ValueError(f"dropper_faults: expected 0 ≤ fraction < 1 and 0 ≤ min_m ≤ max_m, got {fraction}, "
+                         f"{min_m}, {max_m}")
+    u = special.ndtr(z.reshape(p.dropper_lengths_m.shape))
+    faulty = u < fraction
+    v = np.where(faulty, u / max(fraction, 1e-300), 0.0)
+    size = min_m + (max_m - min_m) * np.mod(2.0 * v, 1.0)
+    p.dropper_lengths_m = p.dropper_lengths_m + np.where(faulty, np.where(v < 0.5, size, -size), 0.0)
+
+
 @dataclass(frozen=True)
 class Effect:
     """A physical effect: its function, the draws it takes and its magnitudes.
@@ -227,12 +248,14 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
     Effect("cw_longitudinal_offset", cw_longitudinal_offset, "span"),
     Effect("steady_arm_height_difference", steady_arm_height_difference, "mast"),
     Effect("contact_wire_wear", contact_wire_wear, "span"),
+    Effect("dropper_faults", dropper_faults, "dropper"),
 )}
 
 
 def draws_for(kind: str | None, p: SpanParameters) -> int:
     """Number of standard normal draws an effect of draw ``kind`` takes for ``p``."""
-    return {"span": p.n_spans, "section": p.n_sections, "mast": p.n_masts, None: 0}[kind]
+    return {"span": p.n_spans, "section": p.n_sections, "mast": p.n_masts,
+            "dropper": int(p.dropper_lengths_m.size), None: 0}[kind]
 
 
 def plant(name: str, p: SpanParameters, rng: np.random.Generator, magnitudes: dict[str, float]) -> None:

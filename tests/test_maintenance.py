@@ -256,3 +256,24 @@ def test_the_list_is_ordered_and_says_what_to_do():
 def test_bad_settings_name_the_key(block, message):
     with pytest.raises(ConfigError, match=message):
         MaintenanceSettings.from_mapping(block)
+
+
+def test_dropper_faults_plant_the_declared_fraction_sizes_and_signs():
+    # 2000 spans × 9 droppers, 5 % faulty: the count is binomial (sd 0.16 % of the droppers: the
+    # band ±0.7 % is 4.3 sd), every fault 2–4 cm, as many longer as shorter (±4.3 sd of a fair
+    # coin over ≈ 900), sizes uniform (mean 3 cm within 4.3 × 0.58 cm / √900).
+    from catenary.effects import SpanParameters, plant
+
+    n = 2000
+    base = np.tile(np.linspace(0.9, 1.3, 9), (n, 1))
+    p = SpanParameters.independent_spans(base, np.full(n, 20575.0), np.full(n, 1.388), np.full(n, 1.388),
+                                         system_height_mean_m=1.388, contact_tension_n=25500.0, measuring_force_n=36.0)
+    plant("dropper_faults", p, np.random.default_rng(4), {"fraction": 0.05, "min_m": 0.02, "max_m": 0.04})
+    dev = p.dropper_lengths_m - base
+    faulty = dev != 0
+    assert abs(faulty.mean() - 0.05) < 0.007
+    size = np.abs(dev[faulty])
+    assert size.min() >= 0.02 - 1e-12 and size.max() <= 0.04 + 1e-12
+    k = faulty.sum()
+    assert abs(np.sum(dev[faulty] > 0) - k / 2) < 4.3 * np.sqrt(k) / 2
+    assert abs(size.mean() - 0.03) < 4.3 * 0.02 / np.sqrt(12) / np.sqrt(k)

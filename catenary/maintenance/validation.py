@@ -47,15 +47,26 @@ def coverage_check(posterior: pd.DataFrame, truth: pd.DataFrame, span_type: str,
     return pd.DataFrame(rows)
 
 
+def _dropper_of(name: str) -> str:
+    """``dropper_3_force_n`` → ``dropper_3_length_m`` (a dropper's two rows are one item to act on)."""
+    return name.replace("_force_n", "_length_m") if name.startswith("dropper_") else name
+
+
 def list_check(posterior: pd.DataFrame, truth: pd.DataFrame, span_type: str,
                thresholds: np.ndarray | None = None) -> pd.DataFrame:
     """Precision and recall of the list against the inputs truly outside their tolerance, per
     threshold: ``span_type``, ``threshold``, ``n_out_true``, ``n_listed``, ``n_listed_true``,
-    ``precision``, ``recall``, ``false_positive_rate``."""
-    both = _with_truth(posterior, truth)
-    both = both[np.isfinite(both["p_out_of_tolerance"])]
+    ``precision``, ``recall``, ``false_positive_rate``.
+
+    A dropper is one item, listed when its length or its force row is (an unloaded dropper is
+    acted on like a long one), and truly out when its length lies outside tolerance."""
+    rows = posterior[np.isfinite(posterior["p_out_of_tolerance"])].assign(
+        item=lambda d: d["input"].map(_dropper_of))
+    p_item = rows.groupby(["span_id", "item"])["p_out_of_tolerance"].max().rename("p").reset_index()
+    limits = posterior[~posterior["input"].str.endswith("_force_n")]
+    both = _with_truth(limits, truth).merge(p_item, left_on=["span_id", "input"], right_on=["span_id", "item"])
     out = ((both["truth"] < both["lower"]) | (both["truth"] > both["upper"])).to_numpy()
-    p = both["p_out_of_tolerance"].to_numpy()
+    p = both["p"].to_numpy()
     thresholds = np.round(np.linspace(0.05, 0.95, 19), 2) if thresholds is None else np.asarray(thresholds)
     rows = []
     for t in thresholds:
