@@ -54,7 +54,7 @@ def targets(name: str) -> list[str]:
         return [f"{folder}/spans_report.csv"]
     if name in MAINTENANCE:
         return [f"{folder}/validation/maintenance_check.csv", f"{folder}/validation/correction_check.csv",
-                f"{folder}/validation/identification_check.csv"]
+                f"{folder}/validation/identification_check.csv", f"{folder}/N2/maintenance/repair_summary.csv"]
     if name in RECORDING:
         out = [f"{folder}/validation/projection_round_trip.csv", f"{folder}/validation/registration_check.csv"]
         if name in ("r_two_runs", "r_one_run"):

@@ -277,3 +277,66 @@ def test_dropper_faults_plant_the_declared_fraction_sizes_and_signs():
     k = faulty.sum()
     assert abs(np.sum(dev[faulty] > 0) - k / 2) < 4.3 * np.sqrt(k) / 2
     assert abs(size.mean() - 0.03) < 4.3 * 0.02 / np.sqrt(12) / np.sqrt(k)
+
+
+def _section_posterior(n_spans, nominal, listed_spans):
+    """A posterior table of one section of N2 spans at nominal (means = nominal)."""
+    names = [f"dropper_{i + 1}_length_m" for i in range(9)] + ["messenger_tension_n", "system_height_left_m",
+                                                               "system_height_right_m"]
+    rows = []
+    for k in range(n_spans):
+        for name, value in zip(names, nominal):
+            rows.append({"span_id": f"S{k:02d}", "input": name, "mean": value, "nominal": value, "section_id": "A",
+                         "start_chainage_m": 58.5 * k})
+    return pd.DataFrame(rows)
+
+
+def test_repair_windows_put_every_listed_span_in_an_analysed_part():
+    # 20 spans, windows of 10 analysed between masts 3 and 7 (spans 3–6 of a window): spans 5, 6
+    # share one window, 12 gets its own; spans 0 and 19 are run-in/run-out of every window.
+    from catenary.maintenance.repair import repair_windows
+
+    post = _section_posterior(20, np.ones(12), [])
+    listed = pd.DataFrame({"span_id": ["S00", "S05", "S06", "S12", "S19"],
+                           "input": ["dropper_1_length_m", "dropper_5_length_m", "dropper_2_length_m",
+                                     "dropper_9_length_m", "dropper_3_length_m"]})
+    windows, skipped = repair_windows(post, listed, 10, (3, 7))
+    assert [(w.span_ids[0], w.span_ids[-1]) for w in windows] == [("S02", "S11"), ("S09", "S18")]
+    assert [w.droppers for w in windows] == [(("S05", 4), ("S06", 1)), (("S12", 8),)]
+    assert len(skipped) == 1 and "S00, S19" in skipped[0][1]
+
+
+def test_repaired_geometry_runs_as_the_nominal_section(catenary, n2):
+    # A 10-span section at nominal but for dropper 5 of the central span 3 cm long (slack): the
+    # repaired window is the nominal section, whose criteria the contact-force study computes by
+    # its own path (design laws, no spread): equal to 1e-9; as measured, σ_F differs.
+    import yaml
+
+    from catenary.contact_force.draws import build_section, draw_inputs
+    from catenary.contact_force.laws import design_laws
+    from catenary.contact_force.runs import run_section
+    from catenary.contact_force.settings import ContactForceSettings
+    from catenary.maintenance.repair import fixing_buys
+    from catenary.pantograph import load_pantographs
+
+    from .conftest import ROOT
+
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    settings = ContactForceSettings.from_mapping({**config["contact_force"], "speeds_kmh": [300]})
+    pantograph = load_pantographs(ROOT / config["pantographs"])[settings.pantograph]
+    from catenary.dropper_table import nominal_dropper_lengths
+
+    nominal = np.r_[nominal_dropper_lengths(n2, catenary).dropper_lengths_m, n2.messenger_tension_n,
+                    n2.system_height_m, n2.system_height_m]
+    post = _section_posterior(10, nominal, [])
+    post.loc[(post.span_id == "S04") & (post.input == "dropper_5_length_m"), "mean"] += 0.03
+    listed = pd.DataFrame({"span_id": ["S04"], "input": ["dropper_5_length_m"]})
+    table, skipped = fixing_buys(post, listed, n2, catenary, pantograph, settings)
+    assert not skipped and len(table) == 2
+    reference = run_section(build_section(draw_inputs(design_laws(n2, catenary), n2, 10, None), n2, catenary),
+                            catenary, pantograph, settings, [300.0])[1][0]
+    repaired = table[table.state == "repaired"].iloc[0]
+    measured = table[table.state == "as_measured"].iloc[0]
+    assert abs(repaired["std_force_n"] - reference["std_force_n"]) < 1e-9
+    assert abs(repaired["mean_force_n"] - reference["mean_force_n"]) < 1e-9
+    assert abs(measured["std_force_n"] - reference["std_force_n"]) > 0.05

@@ -184,6 +184,8 @@ def measured_outputs(wildcards=None, contact_force=True):
                + maintenance_outputs(types))
     if contact_force:
         outputs += contact_force_outputs(types)
+        if (config.get("maintenance") or {}).get("enabled", True):
+            outputs += expand(f"{RESULTS}/{{span_type}}/maintenance/repair_summary.csv", span_type=types)
     return outputs + [FRONT_PAGE]
 
 

@@ -49,3 +49,27 @@ rule maintenance_check:
         "../envs/catenary.yaml"
     script:
         "../../scripts/maintenance_check.py"
+
+
+rule maintenance_repair:
+    """What fixing buys: the contact force over the sections holding listed spans, with their
+    posterior geometry as measured and with the listed droppers set back to nominal, at the
+    operating speeds (EN 50367 criteria and margins)."""
+    input:
+        posterior=f"{RESULTS}/{{span_type}}/maintenance/posterior.parquet",
+        listed=f"{RESULTS}/{{span_type}}/maintenance/maintenance.csv",
+        catenary=config["catenary"],
+        pantographs=config["pantographs"],
+    output:
+        table=f"{RESULTS}/{{span_type}}/maintenance/repair.csv",
+        summary=reported(f"{RESULTS}/{{span_type}}/maintenance/repair_summary.csv", "maintenance_repair", MAINTENANCE, "What fixing buys"),
+    params:
+        contact_force=span_type_settings("contact_force"),
+    log:
+        f"{RESULTS}/logs/maintenance_repair/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/maintenance_repair/{{span_type}}.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/maintenance_repair.py"

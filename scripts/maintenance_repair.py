@@ -1,0 +1,29 @@
+"""Rule maintenance_repair: the contact force over the listed spans as measured and repaired."""
+
+import pandas as pd
+
+from catenary.config import load_catenary
+from catenary.contact_force.settings import ContactForceSettings
+from catenary.logs import rule_logger
+from catenary.maintenance.repair import fixing_buys, repair_summary
+from catenary.pantograph import load_pantographs
+from catenary.parquet import read_table
+
+log = rule_logger("maintenance_repair", snakemake.log[0])
+catenary = load_catenary(snakemake.input.catenary)
+span_type = catenary.span_type(snakemake.wildcards.span_type)
+settings = ContactForceSettings.from_mapping(snakemake.params.contact_force)
+pantograph = load_pantographs(snakemake.input.pantographs)[settings.pantograph]
+listed = pd.read_csv(snakemake.input.listed)
+table, skipped = fixing_buys(read_table(snakemake.input.posterior), listed, span_type, catenary, pantograph, settings)
+summary = repair_summary(table).assign(reason="")
+for section, why in skipped:
+    log.warning("section %s: %s", section, why)
+summary = pd.concat([summary, pd.DataFrame({"section_id": [s for s, _ in skipped], "reason": [w for _, w in skipped]})],
+                    ignore_index=True)
+table.to_csv(snakemake.output.table, index=False, float_format="%.6g")
+summary.to_csv(snakemake.output.summary, index=False, float_format="%.6g")
+for row in summary.dropna(subset=["speed_kmh"]).itertuples():
+    log.info("%s %s–%s at %.0f km/h, repairing %s: σ_F %+.2f N, Fm − 3σ margin %+.2f N", row.section_id,
+             row.first_span_id, row.last_span_id, row.speed_kmh, row.listed, row.std_force_change_n,
+             row.statistical_min_margin_change_n)
