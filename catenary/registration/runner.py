@@ -141,8 +141,9 @@ def _span_types_of(masts: pd.DataFrame, catenary: Catenary) -> list:
 
 def _table_sections(masts: pd.DataFrame, catenary: Catenary, settings: RegistrationSettings) -> list[_TableSection]:
     """The table's sections, made consistent with the span types' lengths (module docs, step 4):
-    a mast whose two spans match no span type while the two together match one is extra; a span
-    as long as two spans gets the mast missing between them, where the span types put it."""
+    a mast whose two spans match no span type while the two together match one, or two, is extra
+    (two: it sits in the gap of a missing mast); a span as long as two spans gets the mast
+    missing between them, where the span types put it."""
     types = _span_types_of(masts, catenary)
     lengths = np.array([st.length_m for st in catenary.span_types.values()])
     tol = settings.length_tolerance_m
@@ -160,10 +161,19 @@ def _table_sections(masts: pd.DataFrame, catenary: Catenary, settings: Registrat
             changed = False
             for j in range(1, len(ids) - 1):
                 left, right = x[j] - x[j - 1], x[j + 1] - x[j]
-                if (not _matches(left, lengths, tol) and not _matches(right, lengths, tol)
-                        and _matches(left + right, lengths, tol)):
+                if _matches(left, lengths, tol) or _matches(right, lengths, tol):
+                    continue
+                one = _matches(left + right, lengths, tol)
+                # Two spans around a mast metres from where any span type would put it (beyond
+                # four tolerances: not a table's positioning error): a mast listed where none is,
+                # or moved out of recognition, in the gap of a missing one. Dropped here, the
+                # missing one inserted by the pass below where the span types put it.
+                two = (not _matches(left, lengths, 4 * tol) and not _matches(right, lengths, 4 * tol)
+                       and _two_spans(left + right, kinds[j - 1], catenary, 2 * tol) is not None)
+                if one or two:
                     extra.append((ids[j], x[j]))
-                    kinds[j - 1] = _nearest_type(left + right, catenary)
+                    if one:
+                        kinds[j - 1] = _nearest_type(left + right, catenary)
                     for seq in (ids, x, kinds, std, missing):
                         del seq[j]
                     changed = True
