@@ -3,14 +3,14 @@
 import pandas as pd
 
 from catenary.config import load_catenary
-from catenary.identification.report import read_corrected
+from catenary.identification.data import read_corrected
 from catenary.identification.settings import IdentificationSettings
 from catenary.logs import rule_logger
-from catenary.maintenance.figures import chainage_figure
+from catenary.maintenance.figures import chainage_figure, population_band_figure
 from catenary.maintenance.runner import run_maintenance
 from catenary.maintenance.settings import MaintenanceSettings
 from catenary.model_error.propagation import span_shifts
-from catenary.maintenance.outputs import write_maintenance
+from catenary.maintenance.outputs import write_bands, write_maintenance
 from catenary.parquet import read_table, settings_hash
 from catenary.repeatability import read_noise
 
@@ -41,3 +41,11 @@ chainage_figure(run.posterior, settings.threshold, snakemake.output.figure,
                 f"{span_type.name}: dropper most likely out of tolerance per span")
 log.info("%s: %d span input(s) listed (P(out of tolerance) > %g)", span_type.name, len(run.listed),
          settings.threshold)
+write_bands(run, snakemake.output.band, snakemake.output.band_coverage)
+if run.bands is not None:
+    cov = run.bands.coverage
+    log.info("%s: posterior band / prior band width %.2f–%.2f at the droppers; leave-one-out coverage %.3f "
+             "(prior band %.3f, nominal %.2f)", span_type.name, cov["width_ratio"].min(), cov["width_ratio"].max(),
+             cov["posterior_coverage_loo"].mean(), cov["prior_coverage"].mean(), identification.band_level)
+population_band_figure(run.bands, data.w_m, span_type.dropper_positions_m, snakemake.output.band_figure,
+                       f"{span_type.name}: the population's posterior band beside the prior band")

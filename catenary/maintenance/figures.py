@@ -18,7 +18,7 @@ import pandas as pd  # noqa: E402
 
 from ..plots import save_figure  # noqa: E402
 
-__all__ = ["chainage_figure"]
+__all__ = ["chainage_figure", "population_band_figure"]
 
 MM = 1e3
 
@@ -63,4 +63,42 @@ def chainage_figure(posterior: pd.DataFrame, threshold: float, path: str | Path,
     ax.set_ylabel("dropper length − nominal [mm]")
     ax.set_title(title)
     ax.legend(loc="upper right", fontsize=8)
+    return save_figure(fig, path)
+
+
+def population_band_figure(bands, w_obs_m: np.ndarray, dropper_positions_m: np.ndarray, path: str | Path,
+                           title: str) -> Path:
+    """The prior band (Fig. 10) and the posterior band along the span, the measured W over them.
+
+    Parameters
+    ----------
+    bands : PopulationBands or None
+        :func:`~.population.population_bands`' output (None: a figure saying no band was asked for).
+    w_obs_m : numpy.ndarray, shape (K, n)
+        Measured W [m].
+    dropper_positions_m : numpy.ndarray, shape (n,)
+    path : str or pathlib.Path
+    """
+    fig, ax = plt.subplots(figsize=(9, 4))
+    if bands is None:
+        ax.text(0.5, 0.5, "no posterior band: maintenance.band_draws_per_span is 0", ha="center", va="center")
+        ax.set_axis_off()
+        return save_figure(fig, path)
+    p, q = bands.prior, bands.posterior
+    ax.fill_between(p.x_m, MM * p.lower_m, MM * p.upper_m, color="tab:blue", alpha=0.2,
+                    label=f"prior band {100 * p.level:.0f} % (identified laws, Fig. 10)")
+    ax.fill_between(q.x_m, MM * q.lower_m, MM * q.upper_m, color="tab:orange", alpha=0.45,
+                    label=f"posterior band {100 * q.level:.0f} % (the spans' posteriors)")
+    ax.plot(q.x_m, MM * q.median_m, color="tab:orange", lw=1)
+    xs = np.broadcast_to(dropper_positions_m, w_obs_m.shape)
+    ax.plot(xs.ravel(), MM * w_obs_m.ravel(), ".", ms=2, color="k", label="measured W")
+    cov = bands.coverage
+    text = (f"width at the droppers: posterior / prior {cov['width_ratio'].min():.2f}–{cov['width_ratio'].max():.2f}\n"
+            f"leave-one-out coverage {100 * cov['posterior_coverage_loo'].mean():.1f} % "
+            f"(prior band {100 * cov['prior_coverage'].mean():.1f} %, nominal {100 * q.level:.0f} %)")
+    ax.text(0.01, 0.02, text, transform=ax.transAxes, fontsize=8, va="bottom")
+    ax.set_xlabel("abscissa from the left mast [m]")
+    ax.set_ylabel("CW deflection from the chord [mm]")
+    ax.set_title(title)
+    ax.legend(loc="lower right", fontsize=8)
     return save_figure(fig, path)

@@ -203,6 +203,9 @@ class Posterior:
     misfit_p_value : numpy.ndarray, shape (K,)
         P(χ²_n > the whitened residual at the mode): below :data:`MISFIT_LEVEL`, the span's W is
         not what any taut span of the model gives.
+    draws_z : numpy.ndarray, shape (K, m, d), optional
+        ``m`` equally weighted draws per span from its posterior, in normal scores (the weighted
+        draws resampled); None unless asked for.
     """
 
     names: tuple[str, ...]
@@ -215,6 +218,7 @@ class Posterior:
     effective_samples: np.ndarray
     n_samples: int
     misfit_p_value: np.ndarray
+    draws_z: np.ndarray | None = None
 
     @property
     def status(self) -> np.ndarray:
@@ -364,7 +368,7 @@ def global_modes(prior: SpanPrior, w_obs: np.ndarray, l_inv: np.ndarray
 
 def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np.ndarray, *,
                     lower: np.ndarray | None = None, upper: np.ndarray | None = None, n_samples: int = 4000,
-                    seed: int = 0, df: float = 6.0, chunk_spans: int = 16) -> Posterior:
+                    seed: int = 0, df: float = 6.0, chunk_spans: int = 16, n_draws: int = 0) -> Posterior:
     """The posterior of each span's inputs given its W (module docstring).
 
     Parameters
@@ -385,6 +389,10 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
         Degrees of freedom of the Student-t proposal.
     chunk_spans : int
         Spans weighted at once (bounds the memory to ``chunk_spans × n_samples × d`` floats).
+    n_draws : int
+        Equally weighted draws to keep per span (``Posterior.draws_z``; 0: none): the weighted
+        draws resampled systematically (one uniform per span from ``seed + 1``), so that a draw
+        of weight w appears about ``w · n_draws`` times.
 
     Returns
     -------
@@ -416,6 +424,8 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
     p_out = np.full((k, q), np.nan)
     ess = np.empty(k)
     limited = np.isfinite(lower) | np.isfinite(upper)
+    draws = np.empty((k, n_draws, d)) if n_draws > 0 else None
+    offsets = np.random.default_rng(seed + 1).random(k)
     for start in range(0, k, chunk_spans):
         sl = slice(start, min(start + chunk_spans, k))
         m = sl.stop - sl.start
@@ -435,6 +445,8 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
         w = np.exp(log_w)
         w /= np.sum(w, axis=1, keepdims=True)
         ess[sl] = 1.0 / np.sum(w * w, axis=1)
+        if draws is not None:
+            draws[sl] = _resample(z, w, offsets[sl], n_draws)
         x = np.concatenate([prior.inputs(z.reshape(-1, d)), force], axis=1).reshape(m, n_samples, q)
         mean[sl] = np.einsum("ks,ksd->kd", w, x)
         q05[sl], q95[sl] = weighted_quantiles(x, w, (0.05, 0.95))
@@ -445,7 +457,17 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
     r_hat, _ = _whitened(prior, z_hat, w_obs, l_inv)
     misfit = stats.chi2.sf(np.sum(r_hat * r_hat, axis=1), n)
     return Posterior(output_names(n, prior.system_height_mode), mean, q05, q95, p_out, z_hat, converged, ess,
-                     n_samples, misfit)
+                     n_samples, misfit, draws)
+
+
+def _resample(z: np.ndarray, w: np.ndarray, offsets: np.ndarray, n_draws: int) -> np.ndarray:
+    """Systematic resampling: ``n_draws`` of the draws ``z`` (m, M, d) per span by their weights
+    ``w`` (m, M, summing to one), at the points ``(offset + i) / n_draws``."""
+    points = (offsets[:, None] + np.arange(n_draws)[None, :]) / n_draws
+    cdf = np.cumsum(w, axis=1)
+    cdf[:, -1] = 1.0
+    idx = np.minimum(np.array([np.searchsorted(c, p, side="right") for c, p in zip(cdf, points)]), w.shape[1] - 1)
+    return np.take_along_axis(z, idx[:, :, None], axis=1)
 
 
 def prior_quantiles(prior: SpanPrior, levels: tuple[float, ...]) -> np.ndarray:

@@ -18,10 +18,12 @@ from ..config import Catenary, SpanType
 from ..dropper_table import nominal_dropper_lengths
 from ..errors import InputError
 from ..fast import FastSpanModel
+from ..identification.band import band_abscissae
 from ..identification.design import default_inputs
-from ..identification.report import CorrectedData
+from ..identification.data import CorrectedData
 from ..identification.settings import IdentificationSettings
 from ..model_error.propagation import SpanShifts
+from .population import PopulationBands, population_bands
 from .posterior import SpanPrior, messenger_tension_range_n, output_names, span_posteriors
 from .settings import MaintenanceSettings, tolerance_limits
 
@@ -92,12 +94,14 @@ def noise_covariances(n_droppers: int, n_runs: np.ndarray, one_run_m2: np.ndarra
 @dataclass
 class MaintenanceRun:
     """Outputs of :func:`run_maintenance`: ``posterior`` (:data:`POSTERIOR_COLUMNS`), ``listed``
-    (:data:`LIST_COLUMNS`), the noise in words and the wall time [s]."""
+    (:data:`LIST_COLUMNS`), the noise in words, the wall time [s] and the population's bands
+    (None when ``band_draws_per_span`` is 0)."""
 
     posterior: pd.DataFrame
     listed: pd.DataFrame
     noise: str
     time_s: float
+    bands: PopulationBands | None = None
 
 
 def _span_places(corrected: pd.DataFrame, span_ids: np.ndarray) -> pd.DataFrame:
@@ -114,7 +118,7 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
     Parameters
     ----------
     data : CorrectedData
-        The identification's spans (:func:`~catenary.identification.report.read_corrected`).
+        The identification's spans (:func:`~catenary.identification.data.read_corrected`).
     corrected : pandas.DataFrame
         The correction's table (where each span lies: ``section_id``, ``start_chainage_m``,
         ``end_chainage_m``).
@@ -137,7 +141,13 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
     nominal_inputs = np.r_[nominal_inputs, nominal_dropper_lengths(span_type, catenary).dropper_force_n]
     lower, upper = tolerance_limits(output_names(n, prior.system_height_mode), nominal_inputs, settings)
     post = span_posteriors(prior, data.w_m, cov, lower=lower, upper=upper, n_samples=settings.n_samples,
-                           seed=settings.seed)
+                           seed=settings.seed, n_draws=settings.band_draws_per_span)
+    bands = None
+    if settings.band_draws_per_span > 0:
+        bands = population_bands(prior, post.draws_z, data.w_m, cov,
+                                 x_m=band_abscissae(span_type, identification.band_n_points),
+                                 level=identification.band_level, n_prior_samples=identification.band_n_samples,
+                                 design_method=identification.design, seed=identification.seed + 1)
     places = _span_places(corrected, data.span_id)
     k, d = post.mean.shape
     table = pd.DataFrame({
@@ -152,7 +162,7 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
         "effective_samples": np.repeat(post.effective_samples, d),
         "status": np.repeat(post.status, d),
     }, columns=list(POSTERIOR_COLUMNS))
-    return MaintenanceRun(table, maintenance_list(table, settings.threshold), what, time.perf_counter() - t0)
+    return MaintenanceRun(table, maintenance_list(table, settings.threshold), what, time.perf_counter() - t0, bands)
 
 
 def _action(row) -> str:

@@ -47,6 +47,10 @@ class MaintenanceSettings:
         1 %); 0 keeps the identified law alone, which shrinks a faulty dropper back to nominal.
     fault_std_m : float
         Standard deviation of such a dropper's length error [m] (default 3 cm).
+    band_draws_per_span : int
+        Posterior draws kept per span for the population's posterior band and its
+        leave-one-out coverage (:mod:`.population`; default 200, resampled from the
+        ``n_samples`` weighted ones); 0: no band.
     """
 
     enabled: bool = True
@@ -60,6 +64,7 @@ class MaintenanceSettings:
     min_dropper_force_n: float | None = 10.0
     fault_probability: float = 0.01
     fault_std_m: float = 0.03
+    band_draws_per_span: int = 200
 
     @classmethod
     def from_mapping(cls, mapping: Mapping[str, Any] | None) -> "MaintenanceSettings":

@@ -3,8 +3,9 @@ MAINTENANCE = "8 Maintenance (per-span posteriors)"
 
 rule maintenance:
     """Each span's posterior given its corrected W with the identified laws as the prior (the
-    paper's Bayesian step), the probability of each input lying outside tolerance, and the list of
-    spans and inputs to act on."""
+    paper's Bayesian step), the probability of each input lying outside tolerance, the list of
+    spans and inputs to act on, and the population's posterior band beside the prior band of
+    Fig. 10 with its leave-one-out coverage."""
     input:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
         s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
@@ -15,6 +16,9 @@ rule maintenance:
         posterior=f"{RESULTS}/{{span_type}}/maintenance/posterior.parquet",
         listed=reported(f"{RESULTS}/{{span_type}}/maintenance/maintenance.csv", "maintenance_list", MAINTENANCE, "Maintenance list"),
         figure=reported(f"{RESULTS}/{{span_type}}/maintenance/chainage.png", "maintenance_chainage", MAINTENANCE, "Deviations along the line"),
+        band=f"{RESULTS}/{{span_type}}/maintenance/population_band.csv",
+        band_coverage=reported(f"{RESULTS}/{{span_type}}/maintenance/population_coverage.csv", "maintenance_band_coverage", MAINTENANCE, "Posterior band: coverage"),
+        band_figure=reported(f"{RESULTS}/{{span_type}}/maintenance/population_band.png", "maintenance_band", MAINTENANCE, "Posterior band"),
     params:
         identification=span_type_settings("identification"),
         maintenance=config.get("maintenance"),
