@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 CORES ?= 2
 SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 
-.PHONY: setup run own-data paper unlock test test-slow test-cluster bench bench-line validate clean
+.PHONY: setup run own-data paper unlock test test-slow test-cluster docs bench bench-line validate clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -57,6 +57,12 @@ test-cluster: setup
 	$(BIN)/python -m pip install --quiet -e '.[test,cluster]'
 	bash tests/cluster/run.sh
 
+# The documentation site from docs/ (API reference from the docstrings) into site/, strict: a broken
+# link, a page missing from the navigation or a docstring the reference cannot read fails it.
+docs: setup
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	$(BIN)/mkdocs build --strict
+
 bench: setup
 	$(BIN)/python benchmarks/run.py
 
@@ -73,4 +79,4 @@ validate: setup
 	$(BIN)/python benchmarks/validate.py --cores $(CORES)
 
 clean:
-	rm -rf results .snakemake
+	rm -rf results .snakemake site

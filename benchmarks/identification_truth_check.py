@@ -27,7 +27,7 @@ import pandas as pd
 from catenary.truth_checks import realized_truth
 from catenary.config import load_catenary
 from catenary.identification.dependence import adjacent_span_pairs
-from catenary.identification.report import run_identification
+from catenary.identification.runner import run_identification
 from catenary.identification.settings import IdentificationSettings
 
 

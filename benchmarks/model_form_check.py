@@ -41,7 +41,7 @@ from catenary.campaign import section_model, static_truth
 from catenary.config import load_catenary
 from catenary.dropper_table import nominal_dropper_lengths
 from catenary.fast import FastSpanModel
-from catenary.identification.report import run_identification
+from catenary.identification.runner import run_identification
 from catenary.identification.settings import IdentificationSettings
 from catenary.section import Section
 from catenary.static import solve_static

@@ -1,4 +1,4 @@
-"""Signatures of the candidate effects on W at realistic sizes (README, "Discrepancy workflow").
+"""Signatures of the candidate effects on W at realistic sizes (docs/diagnosis.md).
 
 Not run by ``make bench`` (``make validate`` runs it). For the N2 span in the line at the paper's
 Table 2 laws (T_MW not random), the model sample of W (N = 2e4, the diagnosis's sampler) with

@@ -3,12 +3,12 @@
 Not run by ``make bench``. For the default campaign and every campaign under
 ``config/validation/`` (an overlay ``<name>.yaml`` of ``config/config.yaml`` and its truth
 ``<name>_campaign.yaml``): campaign → ingestion → projection → correction → identification
-(``v*``, the identification validation of the README) and diagnosis (every campaign) through
+(``v*``, the identification validation of docs/identification.md) and diagnosis (every campaign) through
 Snakemake, then
 
 * the identification on each ``v*`` truth's static W (``identification_truth_check.py``),
 * the remaining model-form differences (``model_form_check.py``),
-* the README's validation table (``validation_table.py``),
+* the validation table of docs/identification.md (``validation_table.py``),
 * ``results/validation/diagnosis.csv``: every campaign's diagnosis against its hidden effects
   (campaign, planted, named, verdict, magnitude planted, realized and identified ± se),
 * the diagnosis over replicate data sets at the level of W (``pytest -m validation``: 20 null

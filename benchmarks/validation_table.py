@@ -1,4 +1,4 @@
-"""The README's validation table: campaigns of known truth through the whole pipeline.
+"""The validation table of docs/identification.md: campaigns of known truth through the whole pipeline.
 
 For each results folder given (default: the default run's ``results`` and the three campaigns
 of ``make validate`` under ``results/validate/``), reads the identification check

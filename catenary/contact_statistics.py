@@ -42,7 +42,7 @@ def lowpass(force_n: np.ndarray, time_step_s: float, cutoff_hz: float = 20.0, or
 
 def filtered_window(run: RunResult, start_m: float, end_m: float, cutoff_hz: float = 20.0) -> np.ndarray:
     """The contact force of ``run`` filtered at ``cutoff_hz`` (over the whole run), at the time
-    steps whose contact point lies in [start_m, end_m] [N]."""
+    steps whose contact point lies in ``[start_m, end_m]`` [N]."""
     dt = float(run.time_s[1] - run.time_s[0])
     filtered = lowpass(run.contact_force_n, dt, cutoff_hz)
     window = (run.chainage_m >= start_m) & (run.chainage_m <= end_m)

@@ -31,6 +31,10 @@ direction of travel (the pantograph's lag makes a run towards decreasing chainag
 heights than one towards increasing chainage) and at the local speed of each span (the median of
 the recording's ``speed_kmh`` over the span, as the projection gives it; a speed profile through
 the spans' middles, held beyond the first and last), not one speed per file.
+
+One module, one concern: the iterative correction of a section's runs and the table it writes
+(its settings, loop, convergence record and schema), the measuring pass and the inverse static
+solver it calls being apart (:mod:`catenary.measuring`, :mod:`catenary.dropper_table`).
 """
 
 from __future__ import annotations

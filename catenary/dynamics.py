@@ -24,6 +24,11 @@ Time integration
     Newmark average acceleration (β = 1/4, γ = 1/2): implicit, unconditionally stable and
     energy-conserving for the linear undamped system; fixed step. It starts from the static
     equilibrium of catenary and pantograph at the start position.
+
+One module, one concern: the dynamic model of one pantograph run over one section — its
+matrices, damping, initial equilibrium and run. The compiled time-stepping kernel is
+:mod:`catenary.dynamics_kernel`, the pantograph :mod:`catenary.pantograph`, the measuring car's
+pass :mod:`catenary.measuring`.
 """
 
 from __future__ import annotations

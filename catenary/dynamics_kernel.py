@@ -11,7 +11,7 @@ keeps the last five unknowns in registers; the right-hand side's products with t
 damping run one contiguous pass per diagonal; the slack droppers' Green's functions are stored
 one dropper per row. Per step of a 20-span section (9 583 unknowns): solve 189 → 59 µs,
 M p + C q 171 → 54 µs. The contact forces and heights are those of the Python loop to
-rounding (fixture test), and the README's "Speed of the dynamic model" gives the profile.
+rounding (fixture test), and ``docs/performance.md`` gives the profile.
 
 Numba compiles the functions on first use and caches the machine code next to this file
 (``__pycache__``), so a fresh process pays the compilation (≈ 10 s) once per installation.

@@ -37,6 +37,10 @@ slack are ``F_T' = F_T − K_TS K_SS⁻¹ F_S`` (the Schur complement of the con
 ``F_S' = 0``; S grows until no taut dropper is in compression. A dropper once slack stays slack:
 exact when the slack set only grows (one long dropper, or neighbours unloaded by it), which the
 tests check against the FE model's active set (:mod:`catenary.static`).
+
+One module, one concern: the fast static model of a span, from its condensation to its
+vectorised evaluation (all-taut and slack-solved) and the CW profile between the droppers that
+uses the same condensation; the Chebyshev interpolant it relies on is :mod:`catenary.chebyshev`.
 """
 
 from __future__ import annotations

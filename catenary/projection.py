@@ -54,6 +54,12 @@ A span that fails a step is **rejected** with its reason(s) in the report; only 
 problems raise :class:`~catenary.errors.InputError`. Every span of every run is in the report,
 either ``used`` (and then in exactly one ``spans[type]`` table) or ``rejected`` with a non-empty
 reason: :func:`project` checks this before returning.
+
+One module, one concern: whether each recorded span yields a W to trust. The local fit, the
+checks of the cut and the bookkeeping of used and rejected spans act on the same span and
+section state, and the reconciliation that no span is lost (:func:`check_reconciliation`) is a
+contract on all of them; the spans' table and its schema are written here so that the columns
+the projection fills and the columns the file declares cannot drift apart.
 """
 
 from __future__ import annotations

@@ -52,6 +52,11 @@ listed in ``DataFrame.attrs["ignored_columns"]``; they are not written to the in
 Problems that concern one span only (a drop-out longer than a dropper spacing, a span without
 samples, an unknown span type) are not errors here: :mod:`catenary.projection` rejects that span
 and reports why.
+
+One module, one concern: the input contract of the two files a user brings. Every check above
+names the file, row and column in the same way (:func:`row_label`), and the formats, their
+reading and their checks are kept together so that the documented format and the enforced one
+are the same text.
 """
 
 from __future__ import annotations

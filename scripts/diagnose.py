@@ -20,7 +20,7 @@ from catenary.diagnosis.inputs import measuring_pass_of  # noqa: E402
 from catenary.diagnosis.outputs import DiagnosisPaths, write_diagnosis  # noqa: E402
 from catenary.diagnosis.runner import diagnose  # noqa: E402
 from catenary.diagnosis.settings import DiagnosisSettings  # noqa: E402
-from catenary.identification.report import read_corrected  # noqa: E402
+from catenary.identification.data import read_corrected  # noqa: E402
 from catenary.identification.settings import IdentificationSettings  # noqa: E402
 from catenary.logs import rule_logger  # noqa: E402
 from catenary.model_error.diagnosis import (BudgetSignatures, budget_signatures,  # noqa: E402

@@ -4,7 +4,8 @@ from pathlib import Path
 
 from catenary.config import load_catenary
 from catenary.identification.outputs import IdentificationPaths, write_identification
-from catenary.identification.report import read_corrected, run_identification
+from catenary.identification.data import read_corrected
+from catenary.identification.runner import run_identification
 from catenary.identification.settings import IdentificationSettings
 from catenary.logs import rule_logger
 from catenary.model_error.propagation import span_shifts

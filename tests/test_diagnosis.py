@@ -264,7 +264,7 @@ def test_a_leading_refit_that_spent_its_budget_is_restarted_and_only_gains(caten
     # adds up); the others keep their single run. A budget of 60 evaluations stops every refit
     # of these 14-coordinate models (Nelder–Mead needs hundreds): the two best must show more
     # than 60 evaluations and a Δℓ at least that of their first run, the third exactly 60.
-    from catenary.diagnosis import runner
+    from catenary.diagnosis import runner, refits
 
     settings, data = _small_tension_case(catenary, n2, 60, ["messenger_tension_variability", "dropper_creep",
                                                             "contact_tension_variability"], n_spans=30, seed=24)
@@ -272,11 +272,11 @@ def test_a_leading_refit_that_spent_its_budget_is_restarted_and_only_gains(caten
     ranked = sorted(run.steps[0].candidates, key=lambda c: c.bic)
     base = settings.base(IDENT)
     cands, _ = runner.applicable_candidates(settings, base, n2.n_droppers, False)
-    ctx = runner._Context(n2, catenary, data, base, settings, None, 36.0, cands, None)
-    base_moments = runner._base_moments(ctx, ctx.problem(()), run.start.theta)
+    ctx = refits.DiagnosisContext(n2, catenary, data, base, settings, None, 36.0, cands, None)
+    base_moments = refits.base_moments_at(ctx, ctx.problem(()), run.start.theta)
     for c in ranked[:2]:
         assert c.n_evaluations > 60
-        first = runner._test_candidate(ctx, (), run.start, base_moments, c.effect, len(cands))[0]
+        first = refits.refit_and_test(ctx, (), run.start, base_moments, c.effect, len(cands))[0]
         assert first.n_evaluations == 60 and not first.converged
         assert c.delta_loglik >= first.delta_loglik - 1e-9
     assert ranked[2].n_evaluations == 60

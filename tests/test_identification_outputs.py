@@ -17,8 +17,10 @@ from catenary.identification.design import draw_unit_design
 from catenary.identification.fit import identify, make_likelihood
 from catenary.identification.likelihood import Likelihood, fit_gaussian, kernel_bandwidth
 from catenary.identification.outputs import IdentificationPaths, write_identification
-from catenary.identification.report import (S_OPT_COLUMNS, marginal_densities, markdown_report, normality_report,
-                                            read_corrected, run_identification)
+from catenary.identification.data import read_corrected
+from catenary.identification.report import markdown_report
+from catenary.identification.runner import marginal_densities, normality_report, run_identification
+from catenary.identification.tables import S_OPT_COLUMNS
 from catenary.identification.settings import DETERMINISTIC_CV, IdentificationSettings
 from catenary.identification.synthetic import simulate_deflections
 from catenary.normality import henze_zirkler
@@ -366,7 +368,7 @@ def test_too_few_spans_are_refused_and_few_spans_warned_about(catenary, n2, data
     # any sampling, naming the counts and the settings to change; 13–38 spans (< 3 per
     # parameter) pass with a warning.
     from catenary.errors import InputError
-    from catenary.identification.report import check_span_count
+    from catenary.identification.runner import check_span_count
 
     settings = IdentificationSettings.from_mapping(SMALL)
     with pytest.raises(InputError, match=r"span type N2: 12 measured span\(s\) for 13 identified parameters; "

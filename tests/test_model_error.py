@@ -217,7 +217,8 @@ def test_total_interval_covers_a_planted_force_the_statistical_one_misses(catena
     # that the sampling error of the 300 spans does not enter.
     from catenary.identification.design import default_inputs
     from catenary.identification.fit import make_likelihood
-    from catenary.identification.report import run_identification, s_opt_table
+    from catenary.identification.runner import run_identification
+    from catenary.identification.tables import s_opt_table
     from catenary.identification.settings import IdentificationSettings
     from catenary.identification.synthetic import simulate_deflections
     from catenary.model_error.propagation import SpanShifts

@@ -83,7 +83,7 @@ def test_diagnosis_rediscovers_the_tension_spread(span_type):
     # spread (with 20 spans its score z is ≈ 8, measured), within 3 standard errors of the spread
     # realized in the 20 spans, and step 2 must find nothing. A correction off by 4 N (the
     # failure the test above catches) would not be named: its influence is absorbed by the free
-    # T_MW and ΔH means (README, "Discrepancy workflow").
+    # T_MW and ΔH means (docs/diagnosis.md).
     table = _table("diagnosis_check.csv").reset_index()
     rows = table[table["span_type"] == span_type].sort_values("step")
     first = rows.iloc[0]

@@ -1,6 +1,6 @@
 """Settings of the contact-force rules, read from the ``contact_force`` block of the config.
 
-Every key is documented in ``config/README.md`` and checked against the ``contact_force`` block
+Every key is documented in ``docs/configuration.md`` and checked against the ``contact_force`` block
 of the shipped config schema (:mod:`catenary.schema`).
 """
 

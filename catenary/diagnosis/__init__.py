@@ -6,7 +6,9 @@ missing physical effect explains it, and how much of the gap adding it closes.
 * :mod:`.problem` — J over the base laws and the effects' magnitudes, refits, curvature;
 * :mod:`.locate` — residuals, whitened eigenvalues with a bootstrap band, Mahalanobis
   distances, catch-all gains, Fisher information, score screen, detectable magnitudes;
-* :mod:`.runner` — the forward selection (locate, name, add, repeat);
+* :mod:`.refits` — one candidate's score screen, refit and likelihood-ratio test, and the
+  candidates of a step in worker processes;
+* :mod:`.runner` — the forward selection (locate, name, add, repeat) and its verdicts;
 * :mod:`.settings` — the ``diagnosis`` config block;
 * :mod:`.outputs`, :mod:`.figures` — tables, summary and figures of a run.
 """

@@ -4,7 +4,7 @@ Each candidate is one of the effects of :mod:`catenary.effects` (the same functi
 campaign plants it with) or a model-form extension (``wire_continuity``), with named
 parameters, a null value at which it vanishes, an allowed range and the physics and the
 signature on W it is expected to have. The signatures below were measured on the N2 span in
-the line at realistic sizes (``benchmarks/signatures.py``; README, "Discrepancy workflow").
+the line at realistic sizes (``benchmarks/signatures.py``; ``docs/diagnosis.md``).
 
 Parameter kinds
 ---------------

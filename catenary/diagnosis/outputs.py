@@ -1,4 +1,4 @@
-"""Files of the diagnosis rule for one span type (README: "Discrepancy workflow").
+"""Files of the diagnosis rule for one span type (``docs/diagnosis.md``).
 
 ``findings.csv`` (one row per step), ``candidates.csv`` (every candidate at every step),
 ``steps.json`` (everything located before and after each step), the four figures of

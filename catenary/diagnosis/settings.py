@@ -1,6 +1,6 @@
 """Settings of the diagnosis rule, read from the ``diagnosis`` block of the config.
 
-Every key is documented in ``config/README.md`` and checked against the ``diagnosis`` block of
+Every key is documented in ``docs/configuration.md`` and checked against the ``diagnosis`` block of
 the shipped config schema (:mod:`catenary.schema`). The base model's laws, ΔH mode, design
 method and likelihood come from the ``identification`` block; the diagnosis's ``start`` says
 which inputs are random, which means are free, the span model and the effects the starting

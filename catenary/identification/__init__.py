@@ -7,7 +7,10 @@
 * :mod:`.synthetic` — synthetic measured deflections from known laws;
 * :mod:`.settings` — the ``identification`` block of the workflow config;
 * :mod:`.band` — the CW deflection along the span and its band under given laws (Fig. 10);
-* :mod:`.report` — one span type's run (J, s_opt, normality, estimators, band) and its report;
+* :mod:`.data` — the measured input: the corrected W of a span type, runs averaged;
+* :mod:`.runner` — one span type's run (J, s_opt, normality, estimators, band);
+* :mod:`.tables` — ``s_opt.csv`` and the optimiser's trace as tables;
+* :mod:`.report` — the run in Markdown (``identification.md``);
 * :mod:`.figures`, :mod:`.outputs` — the rule's figures and files.
 
 Typical use::

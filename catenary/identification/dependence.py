@@ -22,7 +22,7 @@ How it is used (:func:`widening`): the reported covariance is the observed-infor
 each variance multiplied by ``max(λ_i, 1)`` — the sandwich may widen an interval, never narrow
 it. K is estimated from the K measured spans themselves, so a λ_i below 1 is as likely the noise
 of that estimate as a real excess of information; over 40 replicate lines of the default
-campaign (README, "Spans that share a mast") the dropper σ's had λ ≈ 0.92 on average while their
+campaign (``docs/identification.md``, "Spans that share a mast") the dropper σ's had λ ≈ 0.92 on average while their
 observed-information intervals already covered the truth in 93–100 % of the lines.
 
 Which spans share a mast is read from the data: two spans of one section whose end and start

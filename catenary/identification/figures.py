@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 
 from ..plots import save_figure  # noqa: E402
 from .band import DeflectionBand  # noqa: E402
-from .report import MarginalDensities  # noqa: E402
+from .runner import MarginalDensities  # noqa: E402
 
 __all__ = ["band_figure", "estimators_figure"]
 

@@ -1,8 +1,8 @@
-"""Files of the identification rule for one span type (see README: what comes out where).
+"""Files of the identification rule for one span type (``docs/outputs.md``).
 
-``s_opt.csv`` (:func:`.report.s_opt_table`), ``trace.parquet`` (:func:`.report.trace_table`,
-explicit Arrow schema :func:`.report.trace_schema`), ``normality.json``
-(:func:`.report.normality_report`), ``estimators.png``, ``band.png`` (:mod:`.figures`) and
+``s_opt.csv`` (:func:`.tables.s_opt_table`), ``trace.parquet`` (:func:`.tables.trace_table`,
+explicit Arrow schema :func:`.tables.trace_schema`), ``normality.json``
+(:func:`.runner.normality_report`), ``estimators.png``, ``band.png`` (:mod:`.figures`) and
 ``identification.md`` (:func:`.report.markdown_report`) and, where the correction's model-error
 budget was measured, ``model_error.csv`` (:func:`catenary.model_error.propagation.budget_table`;
 headers only without it).
@@ -19,7 +19,9 @@ import pandas as pd
 from ..model_error.propagation import MODEL_ERROR_COLUMNS
 from ..parquet import write_table
 from .figures import band_figure, estimators_figure
-from .report import IdentificationRun, markdown_report, s_opt_table, trace_schema, trace_table
+from .report import markdown_report
+from .runner import IdentificationRun
+from .tables import s_opt_table, trace_schema, trace_table
 
 __all__ = ["IdentificationPaths", "write_identification"]
 

@@ -1,6 +1,6 @@
 """Settings of the identification rule, read from the ``identification`` block of the config.
 
-Every key is documented in ``config/README.md``. The settings are checked against the
+Every key is documented in ``docs/configuration.md``. The settings are checked against the
 ``identification`` block of the shipped config schema (:mod:`catenary.schema`), the same file
 the workflow validates its config with; an unknown key or a bad value is a
 :class:`~catenary.errors.ConfigError` naming the key.
@@ -124,7 +124,7 @@ class IdentificationSettings:
         Level of the Henze–Zirkler decisions.
     normality_n_samples : int
         Size of the i.i.d. model samples tested for normality at s0 and s_opt (the test costs
-        O(n²); see :func:`.report.normality_report` for why not the design itself).
+        O(n²); see :func:`.runner.normality_report` for why not the design itself).
     measurement_noise : str or float
         The measured W's own error in the likelihood: ``"repeatability"`` (the covariance the
         runs of a recording measured several times show, :mod:`catenary.repeatability`, divided

@@ -78,7 +78,7 @@ def span_shifts(shifts: pd.DataFrame, span_type: str, span_ids: np.ndarray, n_dr
     n_droppers : int
     corrected : pandas.DataFrame, optional
         The corrected spans (``span_id``, ``run_id``, ``converged``): only converged runs are
-        averaged, as :func:`~catenary.identification.report.read_corrected` does.
+        averaged, as :func:`~catenary.identification.data.read_corrected` does.
 
     Returns
     -------

@@ -34,6 +34,12 @@ travelled):
 Without a mast table (:func:`masts_from_trace`), the supports are found along the first run's
 trace, sections end at gaps in the recording, and the span types are read from the supports'
 spacing; every run is then registered onto that table.
+
+One module, one concern: the map from one mast table onto one run's trace. The coarse line,
+the fine fits, the map and the placement of each mast (missing, extra, refused) are the steps of
+one decision per section that share its state; the support detectors they call
+(:mod:`.supports`), the map's fit (:mod:`.mapping`), the lag (:mod:`.lag`), the settings and
+the files are apart.
 """
 
 from __future__ import annotations

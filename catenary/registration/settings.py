@@ -1,4 +1,4 @@
-"""Settings of the registration (config block ``registration``; every key in config/README.md).
+"""Settings of the registration (config block ``registration``; every key in docs/configuration.md).
 
 The block is checked against the shipped config schema (:mod:`catenary.schema`), the same file
 the workflow validates its config with.

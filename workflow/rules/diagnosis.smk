@@ -4,7 +4,7 @@
 rule diagnose:
     """Discrepancy workflow of one span type: locate where the identification model and the
     corrected W disagree, name the missing effect among the candidates, add it, show the gap
-    shrink (README: Discrepancy workflow)."""
+    shrink (docs/diagnosis.md)."""
     input:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
         model_error_budget=f"{RESULTS}/correction/model_error_budget.csv",
