@@ -45,7 +45,7 @@ test: setup
 	$(SMK) --dry-run --quiet --configfile config/test.yaml
 	$(SMK) --cores $(CORES) --configfile config/test.yaml --report results/ci/report.html --report-after-run
 	bash tests/install_browser.sh
-	$(BIN)/python -m pytest -m 'not slow and not validation'
+	$(BIN)/python -m pytest -m 'not slow and not validation' --durations=10
 
 # Calibration of the standard errors and convergence of the dynamic model (CI runs it after make test).
 test-slow: setup

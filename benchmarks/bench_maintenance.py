@@ -5,6 +5,9 @@
   component): the wall time of the modes (Gauss–Newton from the prior's centre and the
   single-fault starts) and of the whole posterior, its peak memory, and the effective sample size
   (median and minimum);
+* the population's posterior band: the same spans' posteriors with 200 draws kept per span, the
+  prior and posterior bands along the span (235 abscissae, 4000 prior samples) and the
+  leave-one-out coverage;
 * what fixing buys: the default run's N2 list (made with Snakemake when missing), its windows
   run as measured and repaired at the operating speeds.
 """
@@ -24,6 +27,8 @@ import yaml
 from catenary.config import load_catenary
 from catenary.fast import FastSpanModel
 from catenary.identification.design import default_inputs
+from catenary.identification.band import band_abscissae
+from catenary.maintenance.population import population_bands
 from catenary.maintenance.posterior import SpanPrior, global_modes, messenger_tension_range_n, span_posteriors
 from catenary.contact_force.settings import ContactForceSettings
 from catenary.maintenance.repair import fixing_buys
@@ -63,6 +68,12 @@ def main() -> None:
     start = time.perf_counter()
     span_posteriors(no_fault, w, noise, n_samples=settings.n_samples, seed=settings.seed)
     plain_s = time.perf_counter() - start
+    drawn = span_posteriors(prior, w, noise, n_samples=settings.n_samples, seed=settings.seed,
+                            n_draws=settings.band_draws_per_span)
+    start = time.perf_counter()
+    population_bands(prior, drawn.draws_z, w, np.broadcast_to(noise, (N_SPANS, 9, 9)), x_m=band_abscissae(n2, 235),
+                     level=0.98, n_prior_samples=4000, design_method="sobol", seed=2)
+    band_s = time.perf_counter() - start
     folder = ROOT / CONFIG["results"] / "N2" / "maintenance"
     if not (folder / "maintenance.csv").exists():
         subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", "--",
@@ -80,6 +91,7 @@ def main() -> None:
         "maintenance_posterior_117_spans_s": total_s,
         "maintenance_posterior_no_fault_component_117_spans_s": plain_s,
         "maintenance_posterior_peak_memory_mb": peak / 2**20,
+        "maintenance_population_band_117_spans_s": band_s,
         "maintenance_effective_samples_median": float(np.median(post.effective_samples)),
         "maintenance_effective_samples_min": float(np.min(post.effective_samples)),
     })
