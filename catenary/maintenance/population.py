@@ -18,8 +18,8 @@ A band that only describes the spans it was built from proves nothing; it must h
 did not see. Each span in turn is left out, the posterior band at the droppers is rebuilt from
 the other spans' draws, and the left-out span's measured W is checked against it; every draw
 carries a measurement error drawn with the left-out span's error covariance, so that the band
-predicts a *measured* W. The prior band is checked the same way (its draws plus the same
-error), on all spans. Both coverages are written per dropper, against the nominal ``level``,
+predicts a *measured* W. The prior band is checked the same way (as many random draws of the
+laws as the band has, plus the same error), on all spans. Both coverages are written per dropper, against the nominal ``level``,
 with the binomial standard error. The laws themselves were identified from every span
 (13 parameters from K spans): this leaves a span out of the update, not of the identification.
 """
