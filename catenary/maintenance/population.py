@@ -53,6 +53,21 @@ def _taut_profiles(prior: SpanPrior, operator, z: np.ndarray) -> tuple[np.ndarra
     return profiles[~slack], int(slack.sum())
 
 
+def _dropper_w(prior: SpanPrior, z: np.ndarray) -> np.ndarray:
+    """W at the droppers [m] of the inputs at normal scores ``z`` (M, d); NaN rows where a dropper
+    would be slack (the bands are those of taut spans)."""
+    x = map_inputs(z, prior.means, prior.sigmas, prior.system_height_mode)
+    res = prior.model.evaluate(x.dropper_lengths_m, x.messenger_tension_n, x.system_height_left_m,
+                               x.system_height_right_m)
+    return np.where(res.slack[:, None], np.nan, res.w_m)
+
+
+def _inside(pooled: np.ndarray, w: np.ndarray, level: float) -> np.ndarray:
+    """Whether ``w`` (n,) lies within the pointwise ``level`` quantiles of ``pooled`` (M, n)."""
+    lo, hi = np.quantile(pooled, [0.5 * (1.0 - level), 0.5 * (1.0 + level)], axis=0)
+    return (w >= lo) & (w <= hi)
+
+
 def posterior_band(prior: SpanPrior, operator, draws_z: np.ndarray, level: float) -> DeflectionBand:
     """Pointwise ``level`` band of the CW deflection over the pooled posterior draws.
 
@@ -106,9 +121,8 @@ def leave_one_out_inside(draws_w: np.ndarray, w_obs: np.ndarray, noise_chol: np.
     for left_out in range(k):
         others = np.delete(draws_w, left_out, axis=0).reshape(-1, n)
         keep = np.all(np.isfinite(others), axis=1)
-        pooled = others[keep] + e[:keep.size][keep] @ noise_chol[left_out].T
-        lo, hi = np.quantile(pooled, [0.5 * (1.0 - level), 0.5 * (1.0 + level)], axis=0)
-        inside[left_out] = (w_obs[left_out] >= lo) & (w_obs[left_out] <= hi)
+        inside[left_out] = _inside(others[keep] + e[:keep.size][keep] @ noise_chol[left_out].T, w_obs[left_out],
+                                   level)
     return inside
 
 
@@ -118,8 +132,7 @@ def _prior_inside(prior_w: np.ndarray, w_obs: np.ndarray, noise_chol: np.ndarray
     e = np.random.default_rng(seed).standard_normal(prior_w.shape)
     inside = np.empty(w_obs.shape, dtype=bool)
     for k in range(w_obs.shape[0]):
-        lo, hi = np.quantile(prior_w + e @ noise_chol[k].T, [0.5 * (1.0 - level), 0.5 * (1.0 + level)], axis=0)
-        inside[k] = (w_obs[k] >= lo) & (w_obs[k] <= hi)
+        inside[k] = _inside(prior_w + e @ noise_chol[k].T, w_obs[k], level)
     return inside
 
 
@@ -169,20 +182,11 @@ def population_bands(prior: SpanPrior, draws_z: np.ndarray, w_obs: np.ndarray, n
     n = prior.n_droppers
     k, m, d = draws_z.shape
     chol = np.linalg.cholesky(np.broadcast_to(noise_covariance_m2, (k, n, n)))
-    # W at the droppers of every posterior draw (NaN where a dropper is slack).
-    z = draws_z.reshape(-1, d)
-    x = map_inputs(z, prior.means, prior.sigmas, prior.system_height_mode)
-    res = prior.model.evaluate(x.dropper_lengths_m, x.messenger_tension_n, x.system_height_left_m,
-                               x.system_height_right_m)
-    draws_w = np.where(res.slack[:, None], np.nan, res.w_m).reshape(k, m, n)
+    draws_w = _dropper_w(prior, draws_z.reshape(-1, d)).reshape(k, m, n)
     post_inside = leave_one_out_inside(draws_w, w_obs, chol, level, seed + 1)
-    # The prior's W at the droppers over the same design as its band.
-    rng = np.random.default_rng(seed + 2)
-    zp = rng.standard_normal((n_prior_samples, d))
-    xp = map_inputs(zp, prior.means, prior.sigmas, prior.system_height_mode)
-    rp = prior.model.evaluate(xp.dropper_lengths_m, xp.messenger_tension_n, xp.system_height_left_m,
-                              xp.system_height_right_m)
-    prior_inside = _prior_inside(rp.w_m[~rp.slack], w_obs, chol, level, seed + 3)
+    # The prior's W at the droppers: as many random draws of the laws as its band has.
+    prior_w = _dropper_w(prior, np.random.default_rng(seed + 2).standard_normal((n_prior_samples, d)))
+    prior_inside = _prior_inside(prior_w[np.all(np.isfinite(prior_w), axis=1)], w_obs, chol, level, seed + 3)
     at = np.searchsorted(prior_band.x_m, prior.model.span_type.dropper_positions_m)
     prior_width = prior_band.upper_m[at] - prior_band.lower_m[at]
     post_width = post_band.upper_m[at] - post_band.lower_m[at]
