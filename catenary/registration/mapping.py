@@ -5,7 +5,8 @@ t_ref)``, ``c₁`` = 1 + the scale error) and, where the data ask for it, a smoo
 polynomial of higher degree in ``t − t_ref``. The map is fitted by weighted least squares to the
 masts whose support the trace shows, each weighted by ``1 / (σ_trace² + (c₁ σ_table)²)``,
 and robustly: a mast further than ``max(4 σ, bound)`` from the fit leaves it and the fit is
-repeated until the set of masts settles.
+repeated until the set of masts settles (the first fit unweighted, so that one mast placed
+confidently in the wrong place does not tilt the map that judges it).
 """
 
 from __future__ import annotations
@@ -112,11 +113,13 @@ def fit_map(table_m: np.ndarray, recorded_m: np.ndarray, std_m: np.ndarray, *, d
         raise ValueError("fit_map: fewer than 2 masts with a trace position")
     inlier = usable.copy()
     coefficients = np.array([reference_m, 1.0])
-    for _ in range(max_iterations):
+    for iteration in range(max_iterations):
         d = int(min(degree, max(1, inlier.sum() - 2)))
         u = t - reference_m
         variance = s ** 2 + (coefficients[1] * np.asarray(table_std_m, dtype=float)) ** 2
-        w = 1.0 / np.sqrt(variance)
+        # the first pass unweighted: a mast placed confidently in the wrong place (a comb slipped
+        # by a metre, its standard error a few centimetres) must not tilt the map that judges it
+        w = 1.0 / np.sqrt(variance) if iteration else np.ones_like(variance)
         a = np.vander(u, d + 1, increasing=True)
         coefficients = np.linalg.lstsq(a[inlier] * w[inlier, None], y[inlier] * w[inlier], rcond=None)[0]
         residual = y - a @ coefficients
