@@ -52,7 +52,8 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from ..config import Catenary, SpanType
+from ..config import Catenary
+from .chain import chain_supports, odometer_scale
 from .mapping import ChainageMap, fit_map
 from .settings import RegistrationSettings
 from .supports import LocalFit, Trace, align_pattern, kink_signal, locate_stagger_support, trace_of
@@ -651,14 +652,15 @@ def masts_from_trace(samples: pd.DataFrame, catenary: Catenary, settings: Regist
                      lag: Callable[[str, float], float]) -> pd.DataFrame:
     """A mast table found from one run's trace alone (no mast table given).
 
-    The supports are followed along the trace span by span: the first support of each stretch
-    of recording (a stretch ends where ``section_gap_m`` passes without samples) is where the
-    support pattern of a span type fits best within one span length of its start; each next one
-    is looked for one span length further (each span type tried, the best fit kept), within
-    ``± search_m``, until the trace ends. Each stretch is a section (``T01``, ``T02``…), its masts
+    A stretch of recording ends where ``section_gap_m`` passes without samples. With the stagger,
+    its supports are followed span by span: the first is where the stagger's reversal is
+    strongest within one span length of the stretch's start; each next one is looked for one span
+    length further (each span type tried, the best fit kept), within ``± search_m``, until the
+    trace ends — a reversal marks each support on its own. With the height alone, whose supports
+    do not, the stretch's whole chain of spans is found at once (:mod:`.chain`). Each stretch is a section (``T01``, ``T02``…), its masts
     ``T01.000``, ``T01.001``…; chainages are the run's own, rescaled by the odometer scale that
-    the spacing of the supports against the span types' lengths gives. Masts and span types
-    come out as a masts table (:func:`catenary.recording.validate_masts`' columns).
+    the supports against the span types' lengths give (:func:`.chain.odometer_scale`). Masts and
+    span types come out as a masts table (:func:`catenary.recording.validate_masts`' columns).
     """
     direction = int(samples["direction"].iloc[0])
     trace = trace_of(samples["chainage_m"].to_numpy(), samples["height_m"].to_numpy(),
@@ -666,23 +668,22 @@ def masts_from_trace(samples: pd.DataFrame, catenary: Catenary, settings: Regist
     speed = float(samples["speed_kmh"].median()) if samples["speed_kmh"].notna().any() else float("nan")
     types = sorted(catenary.span_types, key=lambda n: catenary.span_types[n].length_m)
     lags = {n: direction * (lag(n, speed) if not trace.has_stagger else 0.0) for n in types}
-    kink_grid, kink, _ = support_kinks(trace)
+    kink_grid, kink, sag = support_kinks(trace)
     x = trace.chainage_m[np.isfinite(trace.height_m)]
     breaks = np.flatnonzero(np.diff(x) > settings.section_gap_m)
     stretches = np.split(x, breaks + 1)
     rows = []
     for n, stretch in enumerate(s for s in stretches if s.size and s[-1] - s[0] > min(
             catenary.span_types[t].length_m for t in types)):
-        supports, kinds = _follow(trace, kink_grid, kink, stretch[0], stretch[-1], catenary, types, lags, settings)
+        if trace.has_stagger:
+            supports, kinds = _follow(trace, kink_grid, kink, stretch[0], stretch[-1], catenary, types, lags, settings)
+        else:
+            supports, kinds = chain_supports(kink_grid, kink, sag, stretch[0], stretch[-1], catenary, types, lags,
+                                             settings.max_scale_error)
         if len(supports) < 2:
             continue
         rows.append({"section": n, "supports": supports, "types": kinds})
-    spacing, nominal = [], []
-    for r in rows:
-        for a, b, kind in zip(r["supports"][:-1], r["supports"][1:], r["types"]):
-            spacing.append(b - a)
-            nominal.append(catenary.span_type(kind).length_m)
-    scale = float(np.median(np.asarray(spacing) / np.asarray(nominal))) if spacing else 1.0
+    scale = odometer_scale([(r["supports"], r["types"]) for r in rows], catenary)
     out = []
     origin = rows[0]["supports"][0] if rows else 0.0
     for k, r in enumerate(rows):
@@ -694,19 +695,15 @@ def masts_from_trace(samples: pd.DataFrame, catenary: Catenary, settings: Regist
 
 
 def _follow(trace, kink_grid, kink, start, end, catenary, types, lags, settings):
-    """Supports along one stretch of trace (see :func:`masts_from_trace`)."""
+    """Supports along one stretch of a trace with the stagger (see :func:`masts_from_trace`)."""
     longest = max(catenary.span_types[t].length_m for t in types)
-    # first support: the best comb score of any span type within one span length of the start
+    # first support: the strongest reversal of the stagger within one span length of the start
     offsets = np.arange(start, start + longest, _COARSE_STEP_M)
     best = (-np.inf, None, None)
-    for name in types:
-        st = catenary.span_type(name)
-        features = (np.zeros(1) if trace.has_stagger else st.dropper_positions_m + lags[name])
-        values = np.interp(offsets[:, None] + features[None, :], kink_grid, kink, left=np.nan, right=np.nan)
-        score = np.nanmean(np.abs(values) if trace.has_stagger else values, axis=1)
-        k = int(np.nanargmax(score))
-        if score[k] > best[0]:
-            best = (score[k], offsets[k], name)
+    values = np.abs(np.interp(offsets, kink_grid, kink, left=np.nan, right=np.nan))
+    if np.isfinite(values).any():
+        k = int(np.nanargmax(values))
+        best = (values[k], offsets[k], types[0])
     if best[1] is None:
         return [], []
     supports, kinds = [float(best[1])], []
