@@ -84,7 +84,7 @@ def chain_supports(grid_m: np.ndarray, comb: np.ndarray, sag: np.ndarray, start_
     first = _viterbi(g, comb, sag, step, catenary, types, lags_m, 1.0,
                      {n: max_scale_error * catenary.span_types[n].length_m for n in types}, 0.0)
     if len(first[0]) < 2:
-        return first
+        return first[0], first[1]
     supports, kinds, scores = first
     scale = odometer_scale([(supports, kinds)], catenary)
     price = max(float(np.median(scores)), 0.0)
