@@ -32,7 +32,7 @@ def test_a_section_of_one_type_is_found_whole_at_its_odometer_scale(catenary, se
     # 20 N2 spans read 0.3 % long, each mast moved by up to ±0.1 m, the noise half the kinks:
     # every span N2 though N3's 54 m spans are offered too, the scale to 0.05 %, and every
     # support within 0.5 m — the chain only guides the registration, whose fine fit then looks
-    # within ± search_m (1.5 m) of it (measured 0.35–0.45 m here; 0.46 / 0.75 m on r_table).
+    # within ± search_m (1.5 m) of it (measured 0.35–0.45 m here; 0.50 / 0.73 m on r_table).
     rng = np.random.default_rng(10 + seed)
     kinds = ["N2"] * 20
     supports = 12.0 + 1.003 * 58.5 * np.arange(21) + rng.uniform(-0.1, 0.1, 21)
