@@ -50,9 +50,10 @@ class RegistrationSettings:
     section_gap_m : float
         Without a mast table, a stretch of this length without samples ends a section [m].
     height_lag_std_m : float
-        Uncertainty of the height's lag as the correction's model gives it [m] (the measured
-        droppers' kinks lag by ≈ 0.1 m more or less than the nominal model's): the height cannot
-        place a section's offset better.
+        Uncertainty of the height's lag as the correction's model gives it, at each end of a
+        section [m] (the measured droppers' kinks lag by ≈ 0.1–0.3 m more or less than the
+        nominal model's, and the lag changes along a line): the height cannot place a section's
+        offset and scale better (:func:`catenary.registration.runner._agrees_with_identity`).
     """
 
     enabled: bool = True
@@ -66,7 +67,7 @@ class RegistrationSettings:
     min_matched_masts: int = 3
     length_tolerance_m: float = 1.0
     section_gap_m: float = 20.0
-    height_lag_std_m: float = 0.1
+    height_lag_std_m: float = 0.15
 
     def __post_init__(self) -> None:
         check(asdict(self), "config", "registration")
