@@ -15,13 +15,11 @@ heights, and iterated:
    droppers moves by the gap there; go to 1.
 
 The corrected static W of a span is that of the model whose simulated pass last matched the
-measurement, moved by that pass's gap: the step a next pass would take, not simulated again. A
-pass moves the measured W by 0.8–1 times the static W's move (0.3 at a mid-span dropper that the
-pantograph's uplift slackens), so this leaves a fraction of the gap where stopping would leave
-all of it; on two runs of 20 N2 and 20 N3 spans it took the corrected W's RMS error from
-0.601 / 0.672 mm to 0.592 / 0.644 mm. A slack dropper's CW keeps the model's height. The gap in
-W is the gap in height minus its chord between the span's two steady arms, so an error common
-to a whole span's heights does not count. Tensions and system heights
+measurement. (Applying the last gap on top, the step a next pass would take, was tried: it
+took the corrected W's RMS error on two runs of 20 N2 and 20 N3 spans from 0.601 / 0.672 mm to
+0.592 / 0.644 mm, but made the small profile's N3 diagnosis ambiguous between a T_MW spread and
+contact-wire wear, BIC margin 0.86, and the same-direction repeatability noisier: not kept.) The gap in W is the gap in height minus its chord between the span's two steady arms, so
+an error common to a whole span's heights does not count. Tensions and system heights
 stay at their design values: they are what the identification later treats as random.
 
 A span the projection rejected between measured ones (a drop-out, a cut it could not trust)
@@ -37,9 +35,17 @@ heights than one towards increasing chainage) and at the local speed of each spa
 the recording's ``speed_kmh`` over the span, as the projection gives it; a speed profile through
 the spans' middles, held beyond the first and last), not one speed per file.
 
-One module, one concern: the iterative correction of a section's runs and the table it writes
-(its settings, loop, convergence record and schema), the measuring pass and the inverse static
-solver it calls being apart (:mod:`catenary.measuring`, :mod:`catenary.dropper_table`).
+*Several runs.* Where several runs corrected a span to convergence, each run of spans is then
+passed over once more with the static W of those spans set to the runs' mean corrected W
+(:func:`measured_residuals`): its measured W minus that pass's W is written per span and dropper
+(``residual_w*_m``; NaN for a span one run measured). Their scatter between runs is the
+measurement's own repeatability (:mod:`catenary.repeatability`): unlike the corrected W's, it
+holds nothing of where each run's correction stopped, which differs between directions of travel
+where a dropper hangs slack.
+
+One module, one concern (hence over 500 lines): the iterative correction of a section's runs and
+the table it writes (its settings, loop, the several runs' residual pass, convergence record and
+schema), the measuring pass and the inverse static solver it calls being apart (:mod:`catenary.measuring`, :mod:`catenary.dropper_table`).
 """
 
 from __future__ import annotations
@@ -337,16 +343,63 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
         return RunCorrection(span_ids, empty, np.full(len(rows), np.nan), _passes(history, settings.mode),
                              history, failure=f"a solver did not converge on this run ({exc})")
     # Static W of the last simulated model (at slack droppers the CW hangs below its target).
-    # The last gap is applied without another pass: what the next pass would have aimed for (a
-    # slack dropper's CW stays where the model lets it hang).
     w = StaticModel(section, catenary).solve().dropper_deflection_m()
-    w = np.where(inverse.slack | ~on_measured_d, w, w + gap_w)
     static_w = empty.copy()
     for k in range(len(rows)):
         static_w[k, :n_d[k]] = w[section.dropper_span == k]
     slack = np.bincount(section.dropper_span, inverse.slack, minlength=len(rows)).astype(int)
     return RunCorrection(span_ids, static_w, history[-1][1], _passes(history, settings.mode), history,
                          section.dropper_lengths_m, slack_droppers=slack, section=section)
+
+
+def measured_residuals(rows: pd.DataFrame, result: RunCorrection, common_w_m: np.ndarray, catenary: Catenary,
+                       pantograph: Pantograph, speed_m_s: float, settings: CorrectionSettings, *, direction: int = 1,
+                       speed_profile: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """What a run measured minus what its own measuring pass gives over a static W common to
+    several runs, per span and dropper [m] (module docs, *Several runs*).
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        The run's spans, as corrected (:func:`correct_run`).
+    result : RunCorrection
+        The run's correction; its final model gives the steady arms and the spans without a
+        common W.
+    common_w_m : numpy.ndarray
+        Static W per span (n_spans, n_droppers) [m]; NaN rows keep the run's own model.
+    catenary, pantograph, speed_m_s, settings, direction, speed_profile
+        As for :func:`correct_run`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Measured minus simulated W (n_spans, n_droppers) [m]; NaN on spans without a common W,
+        unmeasured spans, and everywhere when the run failed.
+    """
+    out = np.full(result.static_w_m.shape, np.nan)
+    if result.section is None:
+        return out
+    section = result.section
+    n_d = np.bincount(section.dropper_span, minlength=len(rows))
+    measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
+    common = np.concatenate([common_w_m[k, :n_d[k]] for k in range(len(rows))])
+    use = np.isfinite(common) & measured[section.dropper_span]
+    own = StaticModel(section, catenary).solve().dropper_deflection_m()
+    target = section.chord_at_droppers(section.cw_support_heights_m) + np.where(use, common, own)
+    section = dropper_lengths_for_cw_heights(section, catenary, target, allow_slack=True).section
+    measured_d, measured_m = measured_heights(rows, section)
+    points = np.concatenate([section.dropper_chainage_m, section.mast_chainage_m])
+    run_kwargs = {} if direction == 1 else {"direction": direction}
+    if speed_profile is not None:
+        run_kwargs["speed_profile"] = speed_profile
+    simulated = measuring_pass(section, catenary, pantograph, speed_m_s=speed_m_s, mode=settings.mode,
+                               time_step_s=settings.time_step_s, chainage_m=points, **run_kwargs).height_m
+    gap_w = (measured_d - simulated[:measured_d.size]) - section.chord_at_droppers(
+        measured_m - simulated[measured_d.size:])
+    gap_w = np.where(use, gap_w, np.nan)
+    for k in range(len(rows)):
+        out[k, :n_d[k]] = gap_w[section.dropper_span == k]
+    return out
 
 
 def _passes_to_converge(history: list[tuple[str, np.ndarray]], settings: CorrectionSettings,
@@ -426,8 +479,9 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
     Returns
     -------
     corrected : pandas.DataFrame
-        One row per input span: identifiers, the corrected static ``w1_m``…, ``iterations``,
-        ``gap_norm_m``, ``converged`` and ``reason`` (empty when converged).
+        One row per input span: identifiers, the corrected static ``w1_m``…, the measured minus
+        simulated ``residual_w1_m``… over the runs' mean W (NaN unless several runs corrected the
+        span), ``iterations``, ``gap_norm_m``, ``converged`` and ``reason`` (empty when converged).
     convergence : pandas.DataFrame
         The gap norm of every span after every simulated pass.
     """
@@ -437,6 +491,7 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
     for column, default in (("run_id", "run"), ("direction", 1), ("speed_kmh", np.nan), ("force_n", np.nan)):
         if column not in spans:
             spans[column] = default
+    done = []
     for rows in consecutive_runs(spans):
         if report is not None:
             rows = fill_unmeasured(rows, report, catenary)
@@ -445,6 +500,9 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
                              direction=direction, speed_profile=profile)
         if after_run is not None:
             after_run(rows, result, pantograph.with_static_force(force), speed, direction, profile)
+        done.append((rows, result, (speed, force, direction, profile)))
+    residuals = _several_runs_residuals(done, catenary, pantograph, settings, log)
+    for (rows, result, (speed, force, direction, profile)), residual in zip(done, residuals):
         converged = np.isfinite(result.gap_norm_m) & (result.gap_norm_m < settings.tolerance_m)
         passes = _passes_to_converge(result.history, settings, len(rows))
         measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
@@ -453,6 +511,8 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
                                         f"gap {result.gap_norm_m[k] * 1e3:.2f} mm after {result.iterations} passes")
             row = {c: rows.loc[k, c] for c in CORRECTED_BASE_COLUMNS}
             row.update({f"w{i + 1}_m": result.static_w_m[k, i] if i < result.static_w_m.shape[1] else np.nan
+                        for i in range(n_max)})
+            row.update({f"residual_w{i + 1}_m": residual[k, i] if i < residual.shape[1] else np.nan
                         for i in range(n_max)})
             row.update(iterations=int(passes[k]), gap_norm_m=result.gap_norm_m[k], converged=bool(converged[k]),
                        slack_droppers=0 if result.slack_droppers is None else int(result.slack_droppers[k]),
@@ -474,11 +534,39 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
                      _nanmax(result.gap_norm_m) * 1e3,
                      f"; FAILED: {result.failure}" if result.failure else "")
     columns = CORRECTED_BASE_COLUMNS + [f"w{i + 1}_m" for i in range(n_max)] + [
-        "iterations", "gap_norm_m", "converged", "slack_droppers", "reason"]
+        f"residual_w{i + 1}_m" for i in range(n_max)] + ["iterations", "gap_norm_m", "converged", "slack_droppers",
+                                                          "reason"]
     corrected = pd.DataFrame(rows_out, columns=columns)
     convergence = pd.DataFrame(history_out, columns=["section_id", "span_id", "run_id", "iteration", "mode",
                                                      "gap_norm_m"])
     return corrected, convergence
+
+
+def _several_runs_residuals(done: list, catenary: Catenary, pantograph: Pantograph, settings: CorrectionSettings,
+                            log=None) -> list[np.ndarray]:
+    """For every corrected run of spans, :func:`measured_residuals` over the mean corrected W of
+    the spans that several runs corrected to convergence (all NaN where no span was)."""
+    ws: dict[str, list[np.ndarray]] = {}
+    for rows, result, _ in done:
+        ok = np.isfinite(result.gap_norm_m) & (result.gap_norm_m < settings.tolerance_m)
+        measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
+        for k in np.flatnonzero(ok & measured):
+            ws.setdefault(str(rows.loc[k, "span_id"]), []).append(result.static_w_m[k])
+    common = {k: np.mean(v, axis=0) for k, v in ws.items() if len(v) >= 2}
+    out = []
+    for rows, result, (speed, force, direction, profile) in done:
+        ids = rows["span_id"].astype(str).to_numpy()
+        if not any(i in common for i in ids):
+            out.append(np.full(result.static_w_m.shape, np.nan))
+            continue
+        w = np.array([common.get(i, np.full(result.static_w_m.shape[1], np.nan)) for i in ids])
+        out.append(measured_residuals(rows, result, w, catenary, pantograph.with_static_force(force), speed,
+                                      settings, direction=direction, speed_profile=profile))
+        if log is not None:
+            log.info("section %s, run %s: measured minus simulated W over the runs' mean corrected W, %d spans "
+                     "(one more %s pass)", rows["section_id"].iloc[0], rows["run_id"].iloc[0],
+                     int(sum(i in common for i in ids)), settings.mode)
+    return out
 
 
 def corrected_schema(columns) -> "pa.Schema":

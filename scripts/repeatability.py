@@ -16,5 +16,9 @@ else:
     log.info("%s: repeatability %.3f mm RMS per dropper and run (%s) from %d spans, %d degrees of freedom%s",
              snakemake.wildcards.span_type, 1e3 * result.rms_m, " ".join(f"{1e3 * v:.3f}" for v in result.std_m),
              result.n_spans, result.dof, "" if result.full else " (diagonal only: too few)")
+    if result.measured_covariance_m2 is not None:
+        log.info("%s: the measurement's own repeatability (measured W minus each run's pass over the runs' mean "
+                 "corrected W) %.3f mm RMS per dropper and run, %d degrees of freedom",
+                 snakemake.wildcards.span_type, 1e3 * result.measured_rms_m, result.measured_dof)
     for span, why in result.flagged().items():
         log.warning("span %s: %s", span, why)

@@ -161,3 +161,41 @@ def test_only_a_solver_failure_is_reported_as_a_failed_run(catenary, n2, measuri
     monkeypatch.setattr(correction, "measuring_pass", misconfigured)
     with pytest.raises(ConfigError, match="unknown pantograph"):
         correct_spans(spans, catenary, measuring, settings)
+
+
+def test_runs_in_opposite_directions_give_the_sensor_noise_in_their_measured_residuals(catenary, n2, measuring):
+    # Eight spans measured in both directions, each run's W with its own sensor noise of
+    # σ = 0.5 mm per dropper (independent). Over the runs' mean corrected W, each run's measured
+    # minus simulated W is its noise less the runs' mean noise, to first order: the pooled
+    # within-span scatter of those residuals (72 degrees of freedom) estimates σ with a relative
+    # standard error of 1/√(2·72) = 8 %; 25 % is three of them. The corrected W's scatter also
+    # holds how the two directions' corrections stop apart, so it is not asked to match.
+    from catenary.repeatability import estimate_repeatability
+
+    time_step_s, sigma = 0.005, 5e-4
+    truth = true_line(catenary, n2, n_spans=8, seed=3)
+    points = np.concatenate([truth.dropper_chainage_m, truth.mast_chainage_m])
+    d = truth.dropper_chainage_m.size
+    runs = []
+    for run_id, direction, seed in (("up", 1, 11), ("down", -1, 12)):
+        kwargs = {} if direction == 1 else {"direction": -1}
+        heights = measuring_pass(truth, catenary, measuring, speed_m_s=SPEED_KMH / 3.6, mode="dynamic",
+                                 time_step_s=time_step_s, chainage_m=points, **kwargs).height_m
+        heights_d = heights[:d] + np.random.default_rng(seed).normal(0.0, sigma, d)
+        runs.append(measured_spans(truth, heights_d, heights[d:]).assign(run_id=run_id, direction=direction))
+    settings = CorrectionSettings(time_step_s=time_step_s, max_iterations=5)
+    corrected, _ = correct_spans(pd.concat(runs, ignore_index=True), catenary, measuring, settings)
+    assert corrected["converged"].all()
+    residuals = corrected[[f"residual_w{i}_m" for i in range(1, 10)]].to_numpy()
+    assert np.isfinite(residuals).all()
+    result = estimate_repeatability(corrected)
+    assert result.measured_dof == 8
+    assert result.measured_rms_m == pytest.approx(sigma, rel=0.25)
+
+
+def test_a_single_run_has_no_measured_residuals(catenary, n2, measuring):
+    # Nothing to compare it with: the residual columns are there and empty, no pass is added.
+    truth = true_line(catenary, n2)
+    spans = measured_run(truth, catenary, measuring, "quasi_static", 0.005)
+    corrected, _ = correct_spans(spans, catenary, measuring, CorrectionSettings(mode="quasi_static"))
+    assert corrected[[f"residual_w{i}_m" for i in range(1, 10)]].isna().all().all()
