@@ -18,9 +18,10 @@ The corrected static W of a span is that of the model whose simulated pass last 
 measurement. (Applying the last gap on top, the step a next pass would take, was tried: it
 took the corrected W's RMS error on two runs of 20 N2 and 20 N3 spans from 0.601 / 0.672 mm to
 0.592 / 0.644 mm, but made the small profile's N3 diagnosis ambiguous between a T_MW spread and
-contact-wire wear, BIC margin 0.86, and the same-direction repeatability noisier: not kept.) The gap in W is the gap in height minus its chord between the span's two steady arms, so
-an error common to a whole span's heights does not count. Tensions and system heights
-stay at their design values: they are what the identification later treats as random.
+contact-wire wear, BIC margin 0.86, and the same-direction repeatability noisier: not kept.)
+The gap in W is the gap in height minus its chord between the span's two steady arms, so an
+error common to a whole span's heights does not count. Tensions and system heights stay at
+their design values: they are what the identification later treats as random.
 
 A span the projection rejected between measured ones (a drop-out, a cut it could not trust)
 still hangs in the line: it stays in the model, at the span type's design (its dropper table,
@@ -45,7 +46,8 @@ where a dropper hangs slack.
 
 One module, one concern (hence over 500 lines): the iterative correction of a section's runs and
 the table it writes (its settings, loop, the several runs' residual pass, convergence record and
-schema), the measuring pass and the inverse static solver it calls being apart (:mod:`catenary.measuring`, :mod:`catenary.dropper_table`).
+schema), the measuring pass and the inverse static solver it calls being apart
+(:mod:`catenary.measuring`, :mod:`catenary.dropper_table`).
 """
 
 from __future__ import annotations
