@@ -32,7 +32,8 @@ import pandas as pd
 IDENTIFICATION = ("v1_wide", "v2_null", "v3_n3")
 #: Recordings as cars write them (issue [12]): registration and several runs, checked against
 #: their truth up to the projection (``r_*``), the runs' repeatability and identification too.
-RECORDING = ("r_table", "r_stagger", "r_no_table", "r_off", "r_two_runs", "r_two_runs_same", "r_one_run")
+RECORDING = ("r_table", "r_stagger", "r_no_table", "r_off", "r_two_runs", "r_two_runs_same", "r_two_runs_default",
+             "r_one_run")
 #: Measured by another car than the correction's model (issue [13]): correction, identification
 #: (statistical and total intervals) and diagnosis against the truth.
 MODEL_ERROR = ("m_car", "m_force", "m_panto", "m_speed")
@@ -60,7 +61,7 @@ def targets(name: str) -> list[str]:
         if name in ("r_two_runs", "r_one_run"):
             out += [f"{folder}/{t}/identification/s_opt.csv" for t in ("N2", "N3")]
             out += [f"{folder}/{t}/repeatability/summary.csv" for t in ("N2", "N3")]
-        if name in ("r_two_runs", "r_two_runs_same"):
+        if name in ("r_two_runs", "r_two_runs_same", "r_two_runs_default"):
             out.append(f"{folder}/validation/repeatability_check.csv")
         return out
     out = [f"{folder}/validation/diagnosis_check.csv", f"{folder}/validation/correction_check.csv"]

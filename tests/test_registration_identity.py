@@ -33,7 +33,7 @@ def _supports(bias_start_m, bias_end_m, scatter_m, seed, offset_m=0.0, scale=1.0
 @pytest.mark.parametrize("seed", range(5))
 def test_a_height_trace_biased_by_its_lag_keeps_an_exact_chainage(seed):
     # The height-placed supports of S08 lay −0.28 m from the truth at its first confirmed mast
-    # and −0.07 m at its last, 0.12 m RMS about that line: within the lag's uncertainty (0.15 m
+    # and −0.07 m at its last, 0.12 m RMS about that line: within the lag's uncertainty (0.2 m
     # at each end), so the recording's chainage, exact here, is kept. With the lag as one offset
     # error of 0.1 m the test rejected it (χ² ≈ 7 > 5.99) and mapped the section off by 0.34 m;
     # without any lag it would be rejected far more.

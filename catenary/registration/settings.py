@@ -67,7 +67,7 @@ class RegistrationSettings:
     min_matched_masts: int = 3
     length_tolerance_m: float = 1.0
     section_gap_m: float = 20.0
-    height_lag_std_m: float = 0.15
+    height_lag_std_m: float = 0.2
 
     def __post_init__(self) -> None:
         check(asdict(self), "config", "registration")
