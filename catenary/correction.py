@@ -297,7 +297,7 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
     section = run_section(rows, catenary)
     n_d = np.bincount(section.dropper_span, minlength=len(rows))
     measured_d, measured_m = measured_heights(rows, section)
-    measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
+    measured = _measured(rows)
     # only measured spans have gaps: an unmeasured span keeps its design; a mast only unmeasured
     # spans hold keeps its height
     on_measured_d = measured[section.dropper_span]
@@ -383,7 +383,7 @@ def measured_residuals(rows: pd.DataFrame, result: RunCorrection, common_w_m: np
         return out
     section = result.section
     n_d = np.bincount(section.dropper_span, minlength=len(rows))
-    measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
+    measured = _measured(rows)
     common = np.concatenate([common_w_m[k, :n_d[k]] for k in range(len(rows))])
     use = np.isfinite(common) & measured[section.dropper_span]
     own = StaticModel(section, catenary).solve().dropper_deflection_m()
@@ -402,6 +402,16 @@ def measured_residuals(rows: pd.DataFrame, result: RunCorrection, common_w_m: np
     for k in range(len(rows)):
         out[k, :n_d[k]] = gap_w[section.dropper_span == k]
     return out
+
+
+def _measured(rows: pd.DataFrame) -> np.ndarray:
+    """Which spans of a run were measured (False: a rejected span kept in the model)."""
+    return rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
+
+
+def _converged(result: RunCorrection, settings: CorrectionSettings) -> np.ndarray:
+    """Per span of a run: its final gap norm is below the tolerance."""
+    return np.isfinite(result.gap_norm_m) & (result.gap_norm_m < settings.tolerance_m)
 
 
 def _passes_to_converge(history: list[tuple[str, np.ndarray]], settings: CorrectionSettings,
@@ -505,9 +515,9 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
         done.append((rows, result, (speed, force, direction, profile)))
     residuals = _several_runs_residuals(done, catenary, pantograph, settings, log)
     for (rows, result, (speed, force, direction, profile)), residual in zip(done, residuals):
-        converged = np.isfinite(result.gap_norm_m) & (result.gap_norm_m < settings.tolerance_m)
+        converged = _converged(result, settings)
         passes = _passes_to_converge(result.history, settings, len(rows))
-        measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
+        measured = _measured(rows)
         for k in np.flatnonzero(measured):
             reason = result.failure or ("" if converged[k] else
                                         f"gap {result.gap_norm_m[k] * 1e3:.2f} mm after {result.iterations} passes")
@@ -550,8 +560,8 @@ def _several_runs_residuals(done: list, catenary: Catenary, pantograph: Pantogra
     the spans that several runs corrected to convergence (all NaN where no span was)."""
     ws: dict[str, list[np.ndarray]] = {}
     for rows, result, _ in done:
-        ok = np.isfinite(result.gap_norm_m) & (result.gap_norm_m < settings.tolerance_m)
-        measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
+        ok = _converged(result, settings)
+        measured = _measured(rows)
         for k in np.flatnonzero(ok & measured):
             ws.setdefault(str(rows.loc[k, "span_id"]), []).append(result.static_w_m[k])
     common = {k: np.mean(v, axis=0) for k, v in ws.items() if len(v) >= 2}
