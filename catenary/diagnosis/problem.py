@@ -6,8 +6,9 @@ effect divided by its typical size (:attr:`~.candidates.CandidateParameter.scale
 effect's allowed range. A spread's null 0 is the lower edge of its range, so the optimiser can
 reach it (a log scale could not).
 
-A model is refitted by Nelder–Mead from a warm start — the current optimum with the new
-effect at its null — under the same design, N and likelihood as the model without it.
+A model is refitted from a warm start — the current optimum with the new effect at its null —
+under the same design, N and likelihood as the model without it: by Fisher scoring where it
+certifies its maximum (:mod:`.scoring`), by Nelder–Mead otherwise or on request.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from ..identification.design import RandomInput
 from ..identification.fit import ParameterBox, ScaledProblem, observed_covariance, run_nelder_mead
 from ..identification.likelihood import Likelihood, LikelihoodValue
 from .candidates import CANDIDATES, CandidateParameter
+from .scoring import fisher_scoring
 
 __all__ = ["Fit", "JointProblem", "refit", "with_covariance"]
 
@@ -165,21 +167,44 @@ class Fit:
 
 
 def refit(problem: JointProblem, theta0: np.ndarray, box: ParameterBox, *, base_step: float = 0.2,
-          effect_step: float = 1.0, max_evaluations: int = 4000, xtol: float = 1e-3, ftol: float = 1e-4) -> Fit:
-    """Maximise J from ``theta0`` (Nelder–Mead, simplex steps ``base_step`` on the base
-    coordinates and ``effect_step`` on the effects')."""
+          effect_step: float = 1.0, max_evaluations: int = 4000, xtol: float = 1e-3, ftol: float = 1e-4,
+          method: str = "nelder-mead") -> Fit:
+    """Maximise J from ``theta0``.
+
+    ``method="nelder-mead"``: Nelder–Mead, simplex steps ``base_step`` on the base coordinates and
+    ``effect_step`` on the effects', stopped at ``xtol`` in θ and ``ftol`` in J.
+    ``"fisher-scoring"``: Fisher scoring first (:mod:`.scoring`); if it does not certify its
+    maximum, Nelder–Mead as above from the better of its end and ``theta0``, with what is left
+    of the budget. The fit's message says which ended it.
+    """
     lo, hi = problem.bounds(box)
     theta0 = np.clip(np.asarray(theta0, dtype=float), lo, hi)
-    steps = np.r_[np.full(problem.n_base, base_step), np.full(lo.size - problem.n_base, effect_step)]
     problem.best = (None, -np.inf)
     n0 = problem.n_evaluations
     t0 = time.perf_counter()
+    prefix = ""
+    if method == "fisher-scoring":
+        spread = np.zeros(lo.size, dtype=bool)
+        spread[problem.n_base:] = [p.kind == "spread" for _, p in problem.coordinates]
+        scored = fisher_scoring(problem, theta0, lo, hi, spread, ftol=ftol, max_evaluations=max_evaluations)
+        if scored.certified:
+            return Fit(effects=problem.effects, theta=scored.theta, j=scored.j, names=problem.names, converged=True,
+                       message="Fisher scoring " + scored.message, n_evaluations=problem.n_evaluations - n0,
+                       time_s=time.perf_counter() - t0)
+        prefix = f"Fisher scoring {scored.message}; Nelder–Mead: "
+        if np.isfinite(scored.j):
+            theta0 = scored.theta
+        max_evaluations = max(max_evaluations - scored.n_evaluations, 1)
+        problem.best = (None, -np.inf)
+    elif method != "nelder-mead":
+        raise ValueError(f"method: expected 'nelder-mead' or 'fisher-scoring', got {method!r}")
+    steps = np.r_[np.full(problem.n_base, base_step), np.full(lo.size - problem.n_base, effect_step)]
     converged, message = run_nelder_mead(problem, theta0, lo, hi, steps, max_evaluations, xtol, ftol)
     theta, j = problem.best
     if theta is None:                    # no finite J anywhere: report the start as not converged
         theta, j, converged, message = theta0, -np.inf, False, "no finite J: " + message
     return Fit(effects=problem.effects, theta=theta, j=float(j), names=problem.names, converged=converged,
-               message=message, n_evaluations=problem.n_evaluations - n0, time_s=time.perf_counter() - t0)
+               message=prefix + message, n_evaluations=problem.n_evaluations - n0, time_s=time.perf_counter() - t0)
 
 
 def with_covariance(fit: Fit, problem: JointProblem, box: ParameterBox, *, step: float = 0.01,

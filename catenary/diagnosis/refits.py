@@ -6,7 +6,8 @@ For a candidate E added to the step's model M (:mod:`.runner`), :func:`refit_and
 1. screens E at its null without a refit: the efficient score test and the smallest magnitude
    of each of its parameters that the step's test would detect (Fisher information by finite
    differences of the Gaussian law of W, :mod:`.locate`);
-2. refits M + E from M's optimum with E at its null (same design, N and likelihood);
+2. refits M + E from M's optimum with E at its null (same design, N and likelihood; Fisher
+   scoring where it certifies its maximum, Nelder–Mead otherwise: :func:`.problem.refit`);
 3. tests the refit: ``LR = 2 (J(M + E) − J(M))`` under the boundary-mixture null law,
    Bonferroni over the step's candidates, the LR of a significant candidate divided by the
    sandwich factor of its parameters (spans sharing a mast) and tested again.
@@ -33,6 +34,7 @@ from .locate import (Locate, efficient_information, expected_information, locate
                      required_noncentrality, score_pvalue, secant_noncentrality)
 from .model import EffectSampler, ModelSet, design_columns, relative_cost
 from .problem import Fit, JointProblem, refit, with_covariance
+from .scoring import gaussian_moments
 
 __all__ = ["CandidateTest", "DiagnosisContext", "base_moments_at", "continue_refit", "refit_and_test",
            "refit_and_test_all"]
@@ -155,17 +157,12 @@ class DiagnosisContext:
         return locate(self.data, value.fit, value.j, draws, n_replicates=self.settings.bootstrap_replicates)
 
 
-def _moments(value):
-    f = value.fit
-    return f.mean, f.chol @ f.chol.T
-
-
 def _information(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndarray, base_moments) -> tuple:
     """Fisher information over (M's coordinates, the last candidate's), the score of J along
     the candidate's coordinates at its null, and the coordinate kinds."""
     nu = ctx.data.shape[0]
     ref_value = problem.evaluate(theta)
-    reference = _moments(ref_value)
+    reference = gaussian_moments(ref_value)
     n_m = len(base_moments)
     moments, steps = list(base_moments), [2 * _BASE_STEP] * n_m
     score, spread = [], []
@@ -184,7 +181,7 @@ def _information(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndarray
             h = (_EFFECT_STEP * p.scale) ** 2
         if vu.fit is None or vd.fit is None:
             return None
-        moments.append((_moments(vu), _moments(vd)))
+        moments.append((gaussian_moments(vu), gaussian_moments(vd)))
         steps.append(h)
         score.append((vu.j - vd.j) / h)
         spread.append(p.kind == "spread")
@@ -198,7 +195,7 @@ def _detectable(ctx: DiagnosisContext, problem: JointProblem, theta0: np.ndarray
     the configured power [SI]; ∞ beyond the allowed range (:func:`.locate.secant_noncentrality`)."""
     nu = ctx.data.shape[0]
     ref = problem.evaluate(theta0)
-    m0, s0 = _moments(ref)
+    m0, s0 = gaussian_moments(ref)
     directions = [((up[0] - down[0]) / (2 * _BASE_STEP), (up[1] - down[1]) / (2 * _BASE_STEP))
                   for up, down in base_moments]
     need = required_noncentrality(p.kind, level, ctx.settings.power)
@@ -212,7 +209,7 @@ def _detectable(ctx: DiagnosisContext, problem: JointProblem, theta0: np.ndarray
         value = problem.evaluate(theta)
         if value.fit is None:
             return float("inf")
-        m, cov = _moments(value)
+        m, cov = gaussian_moments(value)
         lam = secant_noncentrality((m - m0, cov - s0), directions, s0, nu)
         if lam >= need:          # interpolate in log size between the last two sizes
             s_prev, l_prev = previous
@@ -233,7 +230,7 @@ def base_moments_at(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndar
         vu, vd = problem.evaluate(up), problem.evaluate(down)
         if vu.fit is None or vd.fit is None:
             raise RuntimeError(f"J is not finite next to the fitted model along {problem.names[i]}")
-        out.append((_moments(vu), _moments(vd)))
+        out.append((gaussian_moments(vu), gaussian_moments(vd)))
     return out
 
 
@@ -296,7 +293,8 @@ def refit_and_test(ctx: DiagnosisContext, current_effects: tuple[str, ...], fit:
             score_z[p.name] = float(score[k] / np.sqrt(eff[k, k])) if eff[k, k] > 0 else float("nan")
     detectable = {p.name: _detectable(ctx, problem, theta0, base_moments, k, p, level)
                   for k, p in enumerate(cand.parameters)}
-    new = refit(problem, theta0, ctx.box, base_step=0.1, effect_step=1.0, max_evaluations=s.max_evaluations)
+    new = refit(problem, theta0, ctx.box, base_step=0.1, effect_step=1.0, max_evaluations=s.max_evaluations,
+                xtol=s.xtol, ftol=s.ftol, method=s.optimiser)
     return _tested(ctx, problem, fit, new, n_tests, detectable=detectable, score_statistic=float(score_stat),
                    score_p_value=float(score_p), score_z=score_z)
 
@@ -339,7 +337,7 @@ def continue_refit(ctx: DiagnosisContext, current_effects: tuple[str, ...], fit:
     a bound), then the test again. J can only rise; the budgets and times add up."""
     problem = ctx.problem((*current_effects, test.effect))
     more = refit(problem, new.theta, ctx.box, base_step=0.02, effect_step=0.25,
-                 max_evaluations=ctx.settings.max_evaluations)
+                 max_evaluations=ctx.settings.max_evaluations, xtol=ctx.settings.xtol, ftol=ctx.settings.ftol)
     more = dataclasses.replace(more, n_evaluations=new.n_evaluations + more.n_evaluations,
                                time_s=new.time_s + more.time_s)
     return _tested(ctx, problem, fit, more, n_tests, detectable=test.detectable, score_statistic=test.score_statistic,

@@ -1,0 +1,185 @@
+"""Fisher scoring of a candidate's refit: J's own Gaussian law gives the curvature.
+
+J is the log-likelihood of ν measured spans under the Gaussian law N(m(θ), Σ(θ)) of the model's
+W (:class:`~catenary.identification.likelihood.Likelihood`, Gaussian estimator). Its expected
+(Fisher) information
+
+    I(θ) = ν [ ∂mᵀ Σ⁻¹ ∂m + ½ tr(Σ⁻¹ ∂Σ Σ⁻¹ ∂Σ) ]
+
+needs only the first derivatives of m and Σ, which the central differences of J's gradient
+evaluate anyway (2p + 1 evaluations for p coordinates). Each iteration steps by
+``(I + λ diag I)⁻¹ ∇J`` (Levenberg–Marquardt: λ = 0 is the scoring step; λ grows by 10 while a
+step does not raise J, and shrinks again after one that does), each coordinate's move capped at
+1 in θ (4 for a variance), inside the box. A spread enters as its variance v = t² (t = σ/scale
+is the optimiser's coordinate): J is flat in t at the null, where its gradient in v is not, so
+the step can leave the null; its difference is one-sided there.
+
+Where the model fits the data the scoring step is nearly Newton's and converges in a few
+iterations: on the default campaign's N2 (117 spans, N = 10⁴) the named T_MW spread's refit
+took 162 evaluations to J within 10⁻⁴ of Nelder–Mead's after 1 409. Where it does not (an
+effect standing in for another, J's maximum far from the null along a poorly modelled
+direction), the expected information is not J's curvature and the iterations crawl (two
+steps in a row gaining less than ``ftol`` end the scoring), or stop at a point they cannot
+improve. The result is therefore **certified** only where a full
+scoring step (λ = 0, uncapped) predicts a gain below ``ftol`` — the quadratic model, accurate
+there, says the maximum is reached; otherwise :func:`fisher_scoring` says why it stopped and the
+caller refits by Nelder–Mead (:func:`.problem.refit`), from the better point.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .locate import expected_information
+
+__all__ = ["ScoringResult", "fisher_scoring", "gaussian_moments"]
+
+#: Central-difference step of a coordinate in θ (the moments' step of :mod:`.refits`).
+STEP = 0.02
+#: Step of a spread's variance v = t² (t = 0.25: a quarter of the spread's typical size).
+VARIANCE_STEP = 0.0625
+#: Largest move of a coordinate in one step (θ; a variance: 4, i.e. t from 0 to 2).
+MAX_MOVE = 1.0
+MAX_VARIANCE_MOVE = 4.0
+#: Trials of the damping λ in one iteration before the scoring gives up.
+MAX_DAMPING_TRIALS = 6
+
+
+@dataclass(frozen=True)
+class ScoringResult:
+    """The end of a Fisher-scoring run.
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        The best point reached (θ, spreads as t).
+    j : float
+        J there (−inf if J was not finite at the start).
+    certified : bool
+        Converged on a full scoring step (module docstring).
+    message : str
+        Why it stopped.
+    n_evaluations : int
+        J evaluations spent.
+    """
+
+    theta: np.ndarray
+    j: float
+    certified: bool
+    message: str
+    n_evaluations: int
+
+
+def gaussian_moments(value) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and covariance of the Gaussian law of W behind a J evaluation (``value.fit``)."""
+    f = value.fit
+    return f.mean, f.chol @ f.chol.T
+
+
+def fisher_scoring(problem, theta0: np.ndarray, lo: np.ndarray, hi: np.ndarray, spread: np.ndarray, *, ftol: float,
+                   max_iterations: int = 12, max_evaluations: int = 4000) -> ScoringResult:
+    """Maximise ``problem``'s J from ``theta0`` by damped Fisher scoring (module docstring).
+
+    Parameters
+    ----------
+    problem : JointProblem
+        Its ``evaluate(θ)`` returns a :class:`~catenary.identification.likelihood.LikelihoodValue`
+        whose ``fit`` holds the Gaussian law of W (None where J is not finite).
+    theta0 : numpy.ndarray
+        Start, inside ``[lo, hi]`` after clipping.
+    lo, hi : numpy.ndarray
+        The box in θ.
+    spread : numpy.ndarray of bool
+        Coordinates that are spreads (t ≥ 0, handled in t²).
+    ftol : float
+        Certified when a full scoring step predicts a gain below this.
+    max_iterations, max_evaluations : int
+        Limits; reaching either leaves the result uncertified.
+    """
+    spread = np.asarray(spread, dtype=bool)
+    n_spans = problem.likelihood.data_w_m.shape[0]
+    n0 = problem.n_evaluations
+    xlo, xhi = np.asarray(lo, dtype=float).copy(), np.asarray(hi, dtype=float).copy()
+    xlo[spread], xhi[spread] = np.maximum(xlo[spread], 0.0) ** 2, xhi[spread] ** 2
+    steps = np.where(spread, VARIANCE_STEP, STEP)
+    cap = np.where(spread, MAX_VARIANCE_MOVE, MAX_MOVE)
+
+    def theta_of(x):
+        theta = x.copy()
+        theta[spread] = np.sqrt(np.maximum(x[spread], 0.0))
+        return theta
+
+    x = np.clip(np.asarray(theta0, dtype=float), lo, hi)
+    x[spread] = x[spread] ** 2
+    current = problem.evaluate(theta_of(x))
+
+    def result(certified, message):
+        return ScoringResult(theta_of(x), float(current.j), certified, message, problem.n_evaluations - n0)
+
+    if current.fit is None:
+        return result(False, f"J not finite at the start ({current.status})")
+    damping, small_gains = 0.0, 0
+    for iteration in range(1, max_iterations + 1):
+        if problem.n_evaluations - n0 + 2 * x.size + MAX_DAMPING_TRIALS > max_evaluations:
+            return result(False, f"evaluation budget reached after {iteration - 1} iterations")
+        moments, widths, gradient = [], [], np.zeros(x.size)
+        usable = np.ones(x.size, dtype=bool)
+        for i in range(x.size):
+            up, down = x.copy(), x.copy()
+            up[i] = min(x[i] + steps[i], xhi[i])
+            down[i] = max(x[i] - steps[i], xlo[i])
+            v_up = problem.evaluate(theta_of(up)) if up[i] > x[i] else current
+            v_down = problem.evaluate(theta_of(down)) if down[i] < x[i] else current
+            if v_up.fit is None:                 # J not finite on one side: one-sided on the other
+                v_up, up = current, x
+            if v_down.fit is None:
+                v_down, down = current, x
+            width = up[i] - down[i]
+            if width <= 0.0:                     # neither side finite: this coordinate stays put
+                usable[i] = False
+                moments.append((gaussian_moments(current), gaussian_moments(current)))
+                widths.append(1.0)
+                continue
+            moments.append((gaussian_moments(v_up), gaussian_moments(v_down)))
+            widths.append(width)
+            gradient[i] = (v_up.j - v_down.j) / width
+        info = expected_information(moments, widths, n_spans, gaussian_moments(current))
+        # A coordinate on its bound whose gradient points out of the box stays there.
+        free = usable & ~((x <= xlo) & (gradient < 0.0)) & ~((x >= xhi) & (gradient > 0.0))
+        seen = usable & (np.diag(info) > 0.0)
+        free &= seen
+        if not free.any():
+            if seen.all():               # every coordinate on a bound it is pushed against
+                return result(True, f"converged after {iteration - 1} iterations (every coordinate on its bound)")
+            return result(False, f"no coordinate left to move at iteration {iteration}")
+        a = info[np.ix_(free, free)]
+        g = gradient[free]
+        for _ in range(MAX_DAMPING_TRIALS):
+            move = np.zeros(x.size)
+            move[free] = np.linalg.lstsq(a + damping * np.diag(np.diag(a)), g, rcond=1e-12)[0]
+            largest = float(np.max(np.abs(move) / cap))
+            if largest > 1.0:
+                move /= largest
+            predicted = float(g @ move[free] - 0.5 * move[free] @ a @ move[free])
+            trial_x = np.clip(x + move, xlo, xhi)
+            trial = problem.evaluate(theta_of(trial_x))
+            if damping == 0.0 and largest <= 1.0 and predicted < ftol:
+                # A full scoring step that can gain less than ftol: at the maximum, whether or
+                # not J's rounding lets this last step raise it.
+                if trial.j > current.j:
+                    x, current = trial_x, trial
+                return result(True, f"converged after {iteration} iterations (predicted gain {predicted:.2g})")
+            if trial.j > current.j:
+                break
+            damping = max(1e-3, 10.0 * damping)
+        else:
+            return result(False, f"no step raised J at iteration {iteration} (damping {damping:g})")
+        gain = float(trial.j - current.j)
+        x, current = trial_x, trial
+        damping = damping / 10.0 if damping > 1e-3 else 0.0
+        small_gains = small_gains + 1 if gain < ftol else 0
+        if small_gains == 2:             # crawling where the quadratic model is wrong: hand over
+            return result(False, f"crawling at iteration {iteration} (two gains below {ftol:g})")
+    return result(False, f"not converged in {max_iterations} iterations")
