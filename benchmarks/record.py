@@ -8,12 +8,12 @@ so figures are per core.
 from __future__ import annotations
 
 import json
-import os
 import time
 from pathlib import Path
 
-for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+from catenary.blas import one_blas_thread
+
+one_blas_thread(override=False)
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results" / "benchmarks.json"

@@ -6,11 +6,9 @@ start 6 spinning threads on 2 cores (measured: the small profile's diagnosis 4×
 they are reset here, before NumPy loads.
 """
 
-import os
+from catenary.blas import one_blas_thread
 
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "GOTO_NUM_THREADS",
-             "NUMEXPR_NUM_THREADS", "VECLIB_MAXIMUM_THREADS"):
-    os.environ[_var] = "1"
+one_blas_thread(override=True)
 
 from pathlib import Path  # noqa: E402
 

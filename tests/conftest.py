@@ -1,17 +1,15 @@
 """Shared fixtures: the project's catenary data, loaded once.
 
-One BLAS thread per process, set before NumPy loads (as the rule scripts that start worker
-processes do): the linear algebra here is on 9 × 9 covariances and N × 9 samples, where
-OpenBLAS's threads only spin against the tests' own worker processes and each other. Measured
-on 2 cores: the diagnosis's workers test 59.5 s with OpenBLAS's default threads, 10.8 s with
-one; the restart test 34.5 s and 4.8 s.
+One BLAS thread per process unless the caller set one, before NumPy loads
+(:mod:`catenary.blas`; measured: the diagnosis's workers test 59.5 s with OpenBLAS's default
+threads, 10.8 s with one; the restart test 34.5 s and 4.8 s).
 """
 
-import os
 import sys
 
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+from catenary.blas import one_blas_thread
+
+one_blas_thread(override=False)
 if "numpy" in sys.modules:                 # too late for the BLAS threads: say so, do not hide it
     import warnings
 

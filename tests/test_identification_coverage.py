@@ -69,9 +69,8 @@ def _replicate(kind: str, seed: int) -> dict:
 
 
 def _run(kind: str) -> list[dict]:
-    # Two processes (the machine's 2 cores), one BLAS thread each, started fresh ("spawn").
-    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, "1")
+    # Two processes (the machine's 2 cores), started fresh ("spawn"): each inherits the one BLAS
+    # thread tests/conftest.py set in the environment.
     seeds = [FIRST_SEED[kind] + r for r in range(N_REPLICATES)]
     with ProcessPoolExecutor(max_workers=min(2, os.cpu_count() or 1),
                              mp_context=multiprocessing.get_context("spawn")) as pool:

@@ -59,11 +59,11 @@ class DiagnosisSettings:
         it cannot certify its maximum, or Nelder–Mead alone. The starting model is fitted by
         Nelder–Mead with the identification's tolerances: every Δℓ is measured from its J.
     xtol, ftol : float
-        Convergence tolerances of each candidate's refit: the scoring stops on a full step that
-        gains less than ``ftol``; Nelder–Mead when its simplex lies within ``xtol`` in θ and
-        ``ftol`` in J. The test needs Δℓ to about 0.1; at 0.01 and 0.001 Nelder–Mead's refits of
-        the default campaign's N2 end within 0.012 of J at 10⁻³ and 10⁻⁴ with 29 % fewer
-        evaluations (docs/running.md).
+        Convergence tolerances of each candidate's refit: the scoring stops on a full step
+        predicted to gain less than ``ftol``; Nelder–Mead when its simplex lies within ``xtol``
+        in θ and ``ftol`` in J. The test needs Δℓ to about 0.1; at 0.01 and 0.001 Nelder–Mead's
+        refits of the default campaign's N2 end within 0.012 of J at 10⁻³ and 10⁻⁴ with 29 %
+        fewer evaluations (docs/diagnosis.md, "The refits").
     """
 
     random_inputs: tuple[str, ...] = ("dropper_lengths_m", "system_height_m")
