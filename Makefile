@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 CORES ?= 2
 SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 
-.PHONY: setup run own-data paper unlock test test-slow test-cluster docs bench bench-line validate clean
+.PHONY: setup cluster-setup run own-data paper unlock test test-slow test-cluster docs bench bench-line validate clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -38,14 +38,15 @@ unlock: setup
 	$(SMK) --unlock --configfile config/config.yaml
 
 # The small profile runs before pytest: the `pipeline` tests check its results against its truth.
-# pytest runs last so that its summary is the closing line.
+# pytest runs last so that its summary is the closing line, on $(CORES) processes (pytest-xdist;
+# "worksteal": an idle process takes tests queued for a busy one).
 test: setup
 	$(SMK) --lint
 	$(SMK) --dry-run --quiet --configfile config/config.yaml
 	$(SMK) --dry-run --quiet --configfile config/test.yaml
 	$(SMK) --cores $(CORES) --configfile config/test.yaml --report results/ci/report.html --report-after-run
 	bash tests/install_browser.sh
-	$(BIN)/python -m pytest -m 'not slow and not validation' --durations=10
+	$(BIN)/python -m pytest -n $(CORES) --dist worksteal -m 'not slow and not validation' --durations=10
 
 # Calibration of the standard errors and convergence of the dynamic model (CI runs it after make test).
 test-slow: setup
@@ -53,9 +54,17 @@ test-slow: setup
 
 # The small profile's measurement pipeline through a one-node SLURM cluster on this machine (root:
 # installs Debian's Slurm, starts its daemons, stops them on exit); compared with the local run.
-test-cluster: setup
-	$(BIN)/python -m pip install --quiet -e '.[test,cluster]'
+test-cluster: cluster-setup
 	bash tests/cluster/run.sh
+
+# The SLURM executor plugins in .venv (once: CI installs them before test-cluster and test-slow
+# run side by side, so that no install rewrites the venv under a running test).
+CLUSTER_STAMP := $(VENV)/.cluster-installed
+$(CLUSTER_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[test,cluster]'
+	touch $(CLUSTER_STAMP)
+
+cluster-setup: $(CLUSTER_STAMP)
 
 # The documentation site from docs/ (API reference from the docstrings) into site/, strict: a broken
 # link, a page missing from the navigation or a docstring the reference cannot read fails it.

@@ -89,7 +89,7 @@ results: $CLUSTER
 EOF
 rm -rf "$CLUSTER" "$FAILING"
 step "cluster run: the same settings into $CLUSTER"
-timeout -k 30 420 $BIN/snakemake --workflow-profile workflow/profiles/slurm "${SLURM_TEST_ARGS[@]}" \
+timeout -k 30 600 $BIN/snakemake --workflow-profile workflow/profiles/slurm "${SLURM_TEST_ARGS[@]}" \
     --configfile config/test.yaml "$work/cluster.yaml" -- $(targets $CLUSTER)
 
 step "comparing every result file of the cluster run with the local run's"
