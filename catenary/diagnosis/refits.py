@@ -34,13 +34,14 @@ from .locate import (Locate, efficient_information, expected_information, locate
                      required_noncentrality, score_pvalue, secant_noncentrality)
 from .model import EffectSampler, ModelSet, design_columns, relative_cost
 from .problem import Fit, JointProblem, refit, with_covariance
+from .scoring import STEP as _BASE_STEP
 from .scoring import gaussian_moments
 
 __all__ = ["CandidateTest", "DiagnosisContext", "base_moments_at", "continue_refit", "refit_and_test",
            "refit_and_test_all"]
 
-#: Step, in θ, of the finite differences of the base coordinates for the Fisher information.
-_BASE_STEP = 0.02
+# _BASE_STEP (from .scoring): the step, in θ, of the base coordinates' finite differences for the
+# Fisher information, the same as the scoring's.
 #: Step of a shift's finite differences, in units of its scale; a spread's variance step is (this × scale)².
 _EFFECT_STEP = 0.25
 

@@ -36,7 +36,7 @@ from .locate import expected_information
 
 __all__ = ["ScoringResult", "fisher_scoring", "gaussian_moments"]
 
-#: Central-difference step of a coordinate in θ (the moments' step of :mod:`.refits`).
+#: Central-difference step of a coordinate in θ (:mod:`.refits` takes its base coordinates' step from here).
 STEP = 0.02
 #: Step of a spread's variance v = t² (t = 0.25: a quarter of the spread's typical size).
 VARIANCE_STEP = 0.0625
