@@ -68,7 +68,7 @@ def lag_function(catenary: Catenary, pantograph: Pantograph, *, mode: str, time_
                  default_speed_kmh: float):
     """``lag(span_type, speed_kmh)`` for the registration and the projection: :func:`height_lag_m`
     of the correction's model of the measuring pass, at the speed rounded to 1 km/h (the lag
-    moves by ≈ 0.025 m per km/h: measured 0.08, 0.31, 0.57 m at 30, 40, 50 km/h on N2), cached;
+    moves by ≈ 0.025 m per km/h: measured 0.09, 0.32, 0.60 m at 30, 40, 50 km/h on N2), cached;
     a missing speed (NaN) takes ``default_speed_kmh``."""
     cache: dict[tuple[str, int], float] = {}
 
