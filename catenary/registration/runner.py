@@ -682,7 +682,7 @@ def masts_from_trace(samples: pd.DataFrame, catenary: Catenary, settings: Regist
 
     A stretch of recording ends where ``section_gap_m`` passes without samples. With the stagger,
     its supports are followed span by span: the first is where the stagger's reversal is
-    strongest within one span length of the stretch's start; each next one is looked for one span
+    strongest within one span length of the stretch's start, placed by its own fit; each next one is looked for one span
     length further (each span type tried, the best fit kept), within ``± search_m``, until the
     trace ends — a reversal marks each support on its own. With the height alone, whose supports
     do not, the stretch's whole chain of spans is found at once (:mod:`.chain`). Each stretch is a section (``T01``, ``T02``…), its masts
@@ -734,6 +734,11 @@ def _follow(trace, kink_grid, kink, start, end, catenary, types, lags, settings)
         best = (values[k], offsets[k], types[0])
     if best[1] is None:
         return [], []
+    # the kink signal's grid and windows place it to a few decimetres (0.18 m on r_no_table's
+    # first support): the reversal's own fit, as for every next support, to about a centimetre
+    first = locate_stagger_support(trace, float(best[1]), settings.search_m)
+    if first.found:
+        best = (best[0], first.position_m, best[2])
     supports, kinds = [float(best[1])], []
     while True:
         here = supports[-1]

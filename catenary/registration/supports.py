@@ -202,7 +202,8 @@ def _valley(trials: np.ndarray, rss: np.ndarray, dof: int, guess: float, step: f
 
 def locate_stagger_support(trace: Trace, guess_m: float, search_m: float, half_window_m: float = 15.0,
                            step_m: float = 0.02) -> LocalFit:
-    """A support read from the stagger's reversal near ``guess_m`` (module docs).
+    """A support read from the stagger's reversal near ``guess_m`` (module docs); not found (NaN)
+    where the stagger is not recorded over half a window on both sides of the guess.
 
     Parameters
     ----------
@@ -220,7 +221,9 @@ def locate_stagger_support(trace: Trace, guess_m: float, search_m: float, half_w
     if trace.stagger_m is None:
         raise ValueError("locate_stagger_support: the trace has no stagger")
     x, s = trace.window(guess_m - search_m - half_window_m, guess_m + search_m + half_window_m, "stagger")
-    if x.size < 8:
+    if x.size < 8 or x[0] > guess_m - 0.5 * half_window_m or x[-1] < guess_m + 0.5 * half_window_m:
+        # the stagger is not recorded on both sides of the guess (a recorded stretch's end): the
+        # trials it can see lie on one side, and the best of them would be where the data end
         return _NOT_FOUND
     trials = np.arange(guess_m - search_m, guess_m + search_m + 0.5 * step_m, step_m)
     rss = np.full(trials.size, np.nan)
