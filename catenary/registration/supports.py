@@ -36,8 +36,9 @@ campaign ``r_table`` (1 mm of noise every 0.1 m) it gave 0.03–0.12 m where the
 0.24–0.43 m (RMS) from the truth. The height's position and standard error are therefore those
 of a least-squares parabola through every trial within ``±VALLEY_M`` of the best (the valley's
 own width): measured on the same traces, 0.23 / 0.30 m (RMS, N2 / N3) from the truth with a
-median standard error of 0.13 / 0.18 m, and on one mast re-drawn with 12 noise draws a spread
-of 0.12–0.44 m where the three-point curvature said 0.10–0.13 m.
+median standard error of 0.13 / 0.18 m; on four N3 masts, each re-drawn with 12 noise draws,
+the positions spread by 0.12–0.44 m where the three-point curvature said 0.10–0.13 m and the
+valley 0.17–0.22 m.
 """
 
 from __future__ import annotations
