@@ -25,6 +25,20 @@ from catenary.identification.design import default_inputs
 
 ROOT = Path(__file__).resolve().parents[1]
 
+
+def workflow_dir(tmp_path: Path) -> Path:
+    """A working directory of its own for one Snakemake run of a test: links to the project's
+    workflow, scripts, config and data, and its own ``.snakemake`` (metadata, locks). Tests run
+    on both cores (pytest-xdist); two Snakemake runs in one directory race on its lock files
+    (measured: ``FileNotFoundError: .snakemake/locks/0.input.lock`` when a failure test and a
+    registration test ran side by side in the project's directory)."""
+    where = tmp_path / "workdir"
+    where.mkdir(exist_ok=True)
+    for name in ("config", "workflow", "scripts", "data", "Snakefile"):
+        if not (where / name).exists():
+            (where / name).symlink_to(ROOT / name)
+    return where
+
 # Paper Table 2 (N2, s_opt): means and standard deviations of the random inputs.
 TABLE2_DROPPER_MEAN_M = [1.244, 1.098, 0.998, 0.945, 0.934, 0.945, 0.998, 1.098, 1.244]
 TABLE2_DROPPER_SIGMA_M = [0.0067, 0.0050, 0.0045, 0.0045, 0.0038, 0.0044, 0.0035, 0.0034, 0.0070]

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from .conftest import ROOT
+from .conftest import ROOT, workflow_dir
 
 EXAMPLE = ROOT / "data" / "example"
 
@@ -38,7 +38,7 @@ def _snakemake(tmp_path, recording, masts, target: str, extra: str = EXAMPLE_SET
     binary = ROOT / ".venv" / "bin" / "snakemake"
     return subprocess.run([str(binary) if binary.exists() else "snakemake", "--workflow-profile",
                            "workflow/profiles/default", "--cores", "2", "--configfile", "config/test.yaml", str(own),
-                           "--", str(results / target)], cwd=ROOT, capture_output=True, text=True)
+                           "--", str(results / target)], cwd=workflow_dir(tmp_path), capture_output=True, text=True)
 
 
 def _assert_clear_failure(run: subprocess.CompletedProcess, log, *fragments: str) -> None:
@@ -164,9 +164,8 @@ def test_a_run_killed_mid_job_is_resumed_by_the_next_run(tmp_path):
     # make target uses (rerun-incomplete) simply does the job again (≈ 10 s here). (Snakemake
     # 9.27 reran this job even without the flag: the IncompleteFilesException of the report did
     # not reproduce, so the test does not assert it.) The run has its own working directory (its
-    # own .snakemake and locks), with links to the project's files.
-    for name in ("config", "workflow", "scripts", "Snakefile"):
-        (tmp_path / name).symlink_to(ROOT / name)
+    # own .snakemake and locks: :func:`tests.conftest.workflow_dir`), with links to the project's files.
+    where = workflow_dir(tmp_path)
     results = tmp_path / "results"
     own = tmp_path / "own.yaml"
     # the model-error budget (4 more corrections of the section, ≈ 30 s) is not what is resumed
@@ -179,9 +178,9 @@ def test_a_run_killed_mid_job_is_resumed_by_the_next_run(tmp_path):
     target = str(results / "N2" / "corrected.parquet")
 
     def snakemake(*arguments):
-        return subprocess.run(command + list(arguments), cwd=tmp_path, capture_output=True, text=True)
+        return subprocess.run(command + list(arguments), cwd=where, capture_output=True, text=True)
 
-    run = subprocess.Popen(command + profile + ["--", target], cwd=tmp_path, stdout=subprocess.DEVNULL,
+    run = subprocess.Popen(command + profile + ["--", target], cwd=where, stdout=subprocess.DEVNULL,
                            stderr=subprocess.DEVNULL, start_new_session=True)
     log = results / "logs" / "correct_section" / "E01.log"
     deadline = time.monotonic() + 120.0

@@ -20,7 +20,7 @@ import subprocess
 import pandas as pd
 import pytest
 
-from .conftest import ROOT
+from .conftest import ROOT, workflow_dir
 
 pytestmark = pytest.mark.pipeline
 
@@ -38,7 +38,7 @@ def test_shipped_example_runs_the_measurement_pipeline_for_its_span_type(tmp_pat
                           "--workflow-profile", "workflow/profiles/default", "--cores", "2",
                           "--configfile", "config/test.yaml", str(own), "--report", str(results / "report.html"),
                           "--report-after-run", "--", "measurements"],
-                         cwd=ROOT, capture_output=True, text=True)
+                         cwd=workflow_dir(tmp_path), capture_output=True, text=True)
     assert run.returncode == 0, run.stderr[-3000:]
     s_opt = pd.read_csv(results / "N2" / "identification" / "s_opt.csv")
     assert (s_opt["status"] == "ok").all()

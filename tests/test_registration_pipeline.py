@@ -21,7 +21,7 @@ from catenary.recording import run_samples, validate_masts
 from catenary.registration import RegistrationSettings, masts_from_trace, register_run
 from catenary.registration.lag import measuring_lag
 
-from .conftest import ROOT
+from .conftest import ROOT, workflow_dir
 
 CAMPAIGN = ROOT / "tests" / "fixtures" / "r_small_campaign.yaml"
 #: r_table (make validate): the height alone, two sections of 20 N2 and 20 N3 spans.
@@ -39,7 +39,7 @@ def _run(tmp_path, table: bool, campaign=CAMPAIGN, span_types: str = "[N2]") -> 
                            "workflow/profiles/default", "--cores", "2", "--configfile", "config/test.yaml", str(overlay),
                            "--", str(results / "validation" / "registration_check.csv"),
                            str(results / "validation" / "projection_round_trip.csv")],
-                          cwd=ROOT, capture_output=True, text=True)
+                          cwd=workflow_dir(tmp_path), capture_output=True, text=True)
 
 
 @pytest.mark.parametrize("table", [True, False], ids=["mast_table", "no_table"])
