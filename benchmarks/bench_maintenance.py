@@ -29,7 +29,8 @@ from catenary.fast import FastSpanModel
 from catenary.identification.design import default_inputs
 from catenary.identification.band import band_abscissae
 from catenary.maintenance.population import population_bands
-from catenary.maintenance.posterior import SpanPrior, global_modes, messenger_tension_range_n, span_posteriors
+from catenary.maintenance.posterior import global_modes, span_posteriors
+from catenary.maintenance.prior import SpanPrior, messenger_tension_range_n
 from catenary.contact_force.settings import ContactForceSettings
 from catenary.maintenance.repair import fixing_buys
 from catenary.maintenance.settings import MaintenanceSettings

@@ -8,7 +8,8 @@ import numpy as np
 from catenary.fast import FastSpanModel
 from catenary.identification.band import band_abscissae
 from catenary.maintenance.population import leave_one_out_inside, population_bands
-from catenary.maintenance.posterior import SpanPrior, messenger_tension_range_n, span_posteriors
+from catenary.maintenance.posterior import span_posteriors
+from catenary.maintenance.prior import messenger_tension_range_n
 
 from .test_maintenance import NOISE_M, _spans_from_prior, table2_prior  # noqa: F401  (fixture)
 

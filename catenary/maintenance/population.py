@@ -33,7 +33,7 @@ import pandas as pd
 
 from ..identification.band import DeflectionBand, deflection_band, sample_profiles
 from ..identification.design import map_inputs
-from .posterior import SpanPrior
+from .prior import SpanPrior
 
 __all__ = ["BAND_COLUMNS", "COVERAGE_COLUMNS", "PopulationBands", "leave_one_out_inside", "population_bands",
            "posterior_band"]

@@ -12,20 +12,8 @@ two too long in the middle of a span goes slack (N2's dropper 5 at +1.1 cm), and
 depends on how much longer it is — its posterior is the prior beyond the length where it
 slackens, which the fault component below makes a probability of being out of tolerance.
 
-Faulty droppers
----------------
-The identified law of a dropper describes how droppers are made and fitted; a dropper made or
-fitted wrong (a few centimetres) is a draw it all but excludes (6 σ), and a posterior with that
-law alone shrinks it back towards nominal. Each dropper's prior is therefore contaminated,
-``(1 − ε) law + ε fault``, the fault component the law widened by ``fault_std_m``
-(``maintenance.fault_probability``, ``fault_std_m``).
-
-Coordinates
------------
-Every input is written ``x_j = F_j⁻¹(Φ(z_j))`` (the design's Gamma transform,
-:func:`~catenary.identification.design.map_inputs`), so the prior is exactly ``N(0, I)`` in ``z``
-and the negative log posterior is a least-squares sum, ``½ |z|² + ½ |L⁻¹ (W − f(x(z)))|²``
-(``Σ = L Lᵀ``).
+The prior, its fault component, the laws' uncertainty and the normal-score coordinates are
+:mod:`.prior`'s.
 
 Method: Laplace proposal, importance weights
 --------------------------------------------
@@ -54,13 +42,12 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special, stats
+from scipy import stats
 
-from ..fast import FastSpanModel
-from ..identification.design import design_dimension, map_inputs
+from .prior import SpanPrior, output_names
 
-__all__ = ["MIN_EFFECTIVE_FRACTION", "Posterior", "SpanPrior", "global_modes", "input_names", "output_names", "posterior_modes",
-           "span_posteriors", "weighted_quantiles"]
+__all__ = ["MIN_EFFECTIVE_FRACTION", "Posterior", "global_modes", "posterior_modes", "span_posteriors",
+           "weighted_quantiles"]
 
 #: A span whose effective sample size falls below this fraction of the draws is marked.
 MIN_EFFECTIVE_FRACTION = 0.05
@@ -68,116 +55,9 @@ MIN_EFFECTIVE_FRACTION = 0.05
 #: at 1 − this is marked: no taut span of the model explains its W (a slack dropper, a fault
 #: the fast model cannot carry, or an effect it does not have).
 MISFIT_LEVEL = 1e-3
-#: T_MW's normal scores beyond which the prior's mass (< 1e-15) is not sampled: the fast model's
-#: T_MW range covers the law out to there.
-Z_MAX = 8.0
 #: Central-difference step of the Jacobian in normal scores (W is linear in z to 1e-3 of its
 #: change over this step: the inputs move by 1e-3 of their σ).
 JACOBIAN_STEP = 1e-3
-
-
-def input_names(n_droppers: int, system_height_mode: str) -> tuple[str, ...]:
-    """Names of the posterior's inputs in design order, as the campaign's truth names them."""
-    heights = (("system_height_left_m", "system_height_right_m") if system_height_mode == "independent"
-               else ("system_height_m",))
-    return (*(f"dropper_{i + 1}_length_m" for i in range(n_droppers)), "messenger_tension_n", *heights)
-
-
-def output_names(n_droppers: int, system_height_mode: str) -> tuple[str, ...]:
-    """What a posterior describes: the inputs, then each dropper's static force
-    (``dropper_i_force_n``, 0 when slack), which W tells better than a length near slackness."""
-    return (*input_names(n_droppers, system_height_mode), *(f"dropper_{i + 1}_force_n" for i in range(n_droppers)))
-
-
-def messenger_tension_range_n(mean_n: float, sigma_n: float) -> tuple[float, float]:
-    """T_MW at normal scores ∓ :data:`Z_MAX` of its Gamma law [N] (the fast model's range)."""
-    k = (mean_n / sigma_n) ** 2
-    scale = sigma_n**2 / mean_n
-    lo = special.gammaincinv(k, special.ndtr(-Z_MAX)) * scale
-    hi = special.gammainccinv(k, special.ndtr(-Z_MAX)) * scale
-    return float(lo), float(hi)
-
-
-@dataclass(frozen=True)
-class SpanPrior:
-    """The identified laws of one span type and the static model that maps them to W.
-
-    Attributes
-    ----------
-    model : FastSpanModel
-        Built over at least :func:`messenger_tension_range_n` of the T_MW law.
-    means, sigmas : numpy.ndarray, shape (n + 2,)
-        Gamma laws of droppers 1…n [m], T_MW [N] and ΔH [m] (s_opt).
-    system_height_mode : {"shared", "independent"}
-    """
-
-    model: FastSpanModel
-    means: np.ndarray
-    sigmas: np.ndarray
-    system_height_mode: str = "shared"
-    fault_probability: float = 0.0
-    fault_std_m: float = 0.03
-
-    @property
-    def fault_scale(self) -> np.ndarray:
-        """κ per design column: a faulty dropper's normal score has standard deviation κ
-        (``κ² = 1 + (fault_std / σ)²``, the dropper's law widened by the fault's); 1 elsewhere."""
-        kappa = np.ones(self.dimension)
-        if self.fault_probability > 0:
-            kappa[:self.n_droppers] = np.sqrt(1.0 + (self.fault_std_m / self.sigmas[:self.n_droppers]) ** 2)
-        return kappa
-
-    def neg_log_prior(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """−log prior (M,) up to a constant, and its curvature weights λ (M, d) at ``z`` (M, d).
-
-        Each dropper's score has the contaminated law ``(1 − ε) φ(z) + ε φ(z/κ)/κ``; every other
-        input ``φ(z)``. The gradient of −log prior is exactly ``λ z`` with ``λ = ρ + (1 − ρ)/κ²``
-        (``ρ`` the narrow component's responsibility): the Gauss–Newton step's prior precision.
-        """
-        eps = self.fault_probability
-        kappa = self.fault_scale
-        if eps <= 0:
-            return 0.5 * np.sum(z * z, axis=-1), np.ones_like(z)
-        narrow = np.log1p(-eps) - 0.5 * z * z
-        wide = np.log(eps) - np.log(kappa) - 0.5 * (z / kappa) ** 2
-        faulty = kappa > 1
-        log_mix = np.where(faulty, np.logaddexp(narrow, wide), -0.5 * z * z)
-        rho = np.where(faulty, np.exp(narrow - log_mix), 1.0)
-        return -np.sum(log_mix, axis=-1), rho + (1.0 - rho) / kappa**2
-
-    @property
-    def n_droppers(self) -> int:
-        return self.means.size - 2
-
-    @property
-    def dimension(self) -> int:
-        return design_dimension(self.n_droppers, self.system_height_mode)
-
-    def inputs(self, z: np.ndarray) -> np.ndarray:
-        """Physical inputs (M, d) at normal scores ``z`` (M, d), in :func:`input_names` order."""
-        x = map_inputs(z, self.means, self.sigmas, self.system_height_mode)
-        cols = [x.dropper_lengths_m, x.messenger_tension_n[:, None], x.system_height_left_m[:, None]]
-        if self.system_height_mode == "independent":
-            cols.append(x.system_height_right_m[:, None])
-        return np.hstack(cols)
-
-    def deflections(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """W (M, n) [m], slack droppers solved, and a flag (M,) of the points whose T_MW lies
-        beyond :data:`Z_MAX` (no weight there)."""
-        w, _, outside = self.evaluate(z)
-        return w, outside
-
-    def evaluate(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """W (M, n) [m], the dropper forces (M, n) [N] and the out-of-range flag (M,) at ``z``."""
-        z = np.asarray(z, dtype=float)
-        t = self.n_droppers                                  # T_MW's column: the model's range
-        outside = np.abs(z[:, t]) > Z_MAX
-        z = z.copy()
-        z[:, t] = np.clip(z[:, t], -Z_MAX, Z_MAX)
-        x = map_inputs(z, self.means, self.sigmas, self.system_height_mode)
-        res = self.model.evaluate(x.dropper_lengths_m, x.messenger_tension_n, x.system_height_left_m,
-                                  x.system_height_right_m, slack="solve")
-        return res.w_m, res.dropper_force_n, outside
 
 
 @dataclass
@@ -439,7 +319,8 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
             log_q = np.logaddexp(log_q, -0.5 * (df + d) * np.log1p(np.sum(u * u, axis=2) / df) - log_det[:, None])
         f, force, bad = prior.evaluate(z.reshape(-1, d))
         r = np.einsum("kij,kj->ki", np.repeat(l_inv[sl], n_samples, axis=0), np.repeat(w_obs[sl], n_samples, axis=0) - f)
-        log_p = -_objective(prior, z.reshape(-1, d), r, bad)
+        inputs = prior.inputs(z.reshape(-1, d))
+        log_p = -_objective(prior, z.reshape(-1, d), r, bad) + prior.log_law_uncertainty_ratio(z.reshape(-1, d), inputs)
         log_w = log_p.reshape(m, n_samples) - log_q
         log_w -= np.max(log_w, axis=1, keepdims=True)
         w = np.exp(log_w)
@@ -447,7 +328,7 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
         ess[sl] = 1.0 / np.sum(w * w, axis=1)
         if draws is not None:
             draws[sl] = _resample(z, w, offsets[sl], n_draws)
-        x = np.concatenate([prior.inputs(z.reshape(-1, d)), force], axis=1).reshape(m, n_samples, q)
+        x = np.concatenate([inputs, force], axis=1).reshape(m, n_samples, q)
         mean[sl] = np.einsum("ks,ksd->kd", w, x)
         q05[sl], q95[sl] = weighted_quantiles(x, w, (0.05, 0.95))
         if limited.any():

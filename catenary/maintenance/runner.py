@@ -24,7 +24,8 @@ from ..identification.data import CorrectedData
 from ..identification.settings import IdentificationSettings
 from ..model_error.propagation import SpanShifts
 from .population import PopulationBands, population_bands
-from .posterior import SpanPrior, messenger_tension_range_n, output_names, span_posteriors
+from .posterior import span_posteriors
+from .prior import SpanPrior, messenger_tension_range_n, output_names
 from .settings import MaintenanceSettings, tolerance_limits
 
 __all__ = ["LIST_COLUMNS", "MaintenanceRun", "POSTERIOR_COLUMNS", "maintenance_list", "noise_covariances",
@@ -40,10 +41,14 @@ LIST_COLUMNS = ("span_id", "section_id", "start_chainage_m", "end_chainage_m", "
 
 def prior_from_s_opt(span_type: SpanType, catenary: Catenary, s_opt: pd.DataFrame,
                      identification: IdentificationSettings, *, fault_probability: float = 0.0,
-                     fault_std_m: float = 0.03, source: str = "s_opt.csv") -> SpanPrior:
+                     fault_std_m: float = 0.03, law_uncertainty: bool = False,
+                     source: str = "s_opt.csv") -> SpanPrior:
     """The identified laws (``parameter``, ``mu``, ``sigma`` rows of s_opt) with the droppers'
     fault component, and the identification's fast model (same neighbours, T_MW range over the
-    law's ±8 normal scores).
+    law's ±8 normal scores). With ``law_uncertainty``, each μ and σ carries its total standard
+    uncertainty: the standard error and the model-error budget's systematic in quadrature
+    (``mu_se``, ``mu_systematic``, ``sigma_se``, ``sigma_systematic``; a blank one counts 0 — a
+    σ on the boundary, or a singular information, has no standard error to carry).
 
     Raises
     ------
@@ -64,7 +69,15 @@ def prior_from_s_opt(span_type: SpanType, catenary: Catenary, s_opt: pd.DataFram
     model = FastSpanModel(span_type, catenary, messenger_tension_bounds_n=messenger_tension_range_n(means[-2],
                                                                                                      sigmas[-2]),
                           degree=14, neighbours=identification.neighbours)
-    return SpanPrior(model, means, sigmas, identification.system_height_mode, fault_probability, fault_std_m)
+    u_mu = u_sigma = None
+    if law_uncertainty:
+        def total(kind):
+            parts = [table.loc[names, c].to_numpy(dtype=float) for c in (f"{kind}_se", f"{kind}_systematic")
+                     if c in table.columns]
+            return np.sqrt(sum(np.nan_to_num(p) ** 2 for p in parts)) if parts else np.zeros(len(names))
+        u_mu, u_sigma = total("mu"), total("sigma")
+    return SpanPrior(model, means, sigmas, identification.system_height_mode, fault_probability, fault_std_m,
+                     u_mu, u_sigma)
 
 
 def noise_covariances(n_droppers: int, n_runs: np.ndarray, one_run_m2: np.ndarray | None, settings: MaintenanceSettings,
@@ -131,7 +144,8 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
     """
     t0 = time.perf_counter()
     prior = prior_from_s_opt(span_type, catenary, s_opt, identification,
-                             fault_probability=settings.fault_probability, fault_std_m=settings.fault_std_m)
+                             fault_probability=settings.fault_probability, fault_std_m=settings.fault_std_m,
+                             law_uncertainty=settings.law_uncertainty)
     n = span_type.n_droppers
     n_runs = np.ones(data.w_m.shape[0]) if data.n_runs is None else data.n_runs
     cov, what = noise_covariances(n, n_runs, one_run_m2, settings, w_shifts)

@@ -51,6 +51,10 @@ class MaintenanceSettings:
         Posterior draws kept per span for the population's posterior band and its
         leave-one-out coverage (:mod:`.population`; default 200, resampled from the
         ``n_samples`` weighted ones); 0: no band.
+    law_uncertainty : bool
+        The prior carries the identified laws' own uncertainty (each μ and σ by its standard
+        error and systematic, :func:`~.runner.prior_from_s_opt`; default True); False: the laws
+        as point values, which narrows the intervals of the inputs W tells little about.
     """
 
     enabled: bool = True
@@ -65,6 +69,7 @@ class MaintenanceSettings:
     fault_probability: float = 0.01
     fault_std_m: float = 0.03
     band_draws_per_span: int = 200
+    law_uncertainty: bool = True
 
     @classmethod
     def from_mapping(cls, mapping: Mapping[str, Any] | None) -> "MaintenanceSettings":
@@ -88,7 +93,7 @@ def tolerance_limits(names: tuple[str, ...], nominal: np.ndarray, settings: Main
                      ) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper tolerance limits per input and dropper force (NaN where none is given).
 
-    ``names`` as :func:`~.posterior.output_names`, ``nominal`` the design value of each.
+    ``names`` as :func:`~.prior.output_names`, ``nominal`` the design value of each.
     """
     half = np.full(len(names), np.nan)
     lower_only = np.full(len(names), np.nan)
