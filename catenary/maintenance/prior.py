@@ -137,15 +137,20 @@ class SpanPrior:
             sd = np.sqrt((sigma * np.exp(s_log * node)) ** 2 + u_mu ** 2)
             log_mix = np.logaddexp(log_mix, np.log(weight) + _gamma_logpdf(x, log_x, mu, sd))
         ratio = log_mix - base                                                   # (M, d)
-        eps = self.fault_probability
-        if eps > 0:
-            kappa = self.fault_scale
-            faulty = kappa > 1
-            narrow = np.log1p(-eps) - 0.5 * z * z
-            wide = np.log(eps) - np.log(kappa) - 0.5 * (z / kappa) ** 2
+        if self.fault_probability > 0:
+            narrow, wide, faulty = self._components(z)
             changed = np.logaddexp(narrow + ratio, wide) - np.logaddexp(narrow, wide)
             ratio = np.where(faulty, changed, ratio)
         return np.sum(ratio, axis=1)
+
+    def _components(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """log of the law's and of the fault's share of a score's prior density (up to the same
+        constant), and which columns have a fault component."""
+        eps = self.fault_probability
+        kappa = self.fault_scale
+        narrow = np.log1p(-eps) - 0.5 * z * z
+        wide = np.log(eps) - np.log(kappa) - 0.5 * (z / kappa) ** 2
+        return narrow, wide, kappa > 1
 
     @property
     def fault_scale(self) -> np.ndarray:
@@ -163,16 +168,12 @@ class SpanPrior:
         input ``φ(z)``. The gradient of −log prior is exactly ``λ z`` with ``λ = ρ + (1 − ρ)/κ²``
         (``ρ`` the narrow component's responsibility): the Gauss–Newton step's prior precision.
         """
-        eps = self.fault_probability
-        kappa = self.fault_scale
-        if eps <= 0:
+        if self.fault_probability <= 0:
             return 0.5 * np.sum(z * z, axis=-1), np.ones_like(z)
-        narrow = np.log1p(-eps) - 0.5 * z * z
-        wide = np.log(eps) - np.log(kappa) - 0.5 * (z / kappa) ** 2
-        faulty = kappa > 1
+        narrow, wide, faulty = self._components(z)
         log_mix = np.where(faulty, np.logaddexp(narrow, wide), -0.5 * z * z)
         rho = np.where(faulty, np.exp(narrow - log_mix), 1.0)
-        return -np.sum(log_mix, axis=-1), rho + (1.0 - rho) / kappa**2
+        return -np.sum(log_mix, axis=-1), rho + (1.0 - rho) / self.fault_scale**2
 
     @property
     def n_droppers(self) -> int:
