@@ -32,8 +32,8 @@ import pandas as pd
 IDENTIFICATION = ("v1_wide", "v2_null", "v3_n3")
 #: Recordings as cars write them (issue [12]): registration and several runs, checked against
 #: their truth up to the projection (``r_*``), the runs' repeatability and identification too.
-RECORDING = ("r_table", "r_stagger", "r_no_table", "r_height_no_table", "r_exact", "r_off", "r_two_runs", "r_two_runs_same", "r_two_runs_default",
-             "r_one_run")
+RECORDING = ("r_table", "r_stagger", "r_no_table", "r_height_no_table", "r_exact", "r_off", "r_two_runs",
+             "r_two_runs_same", "r_two_runs_default", "r_one_run")
 #: Measured by another car than the correction's model (issue [13]): correction, identification
 #: (statistical and total intervals) and diagnosis against the truth.
 MODEL_ERROR = ("m_car", "m_force", "m_panto", "m_speed")
