@@ -2,13 +2,15 @@
 
 from pathlib import Path
 
+import pandas as pd
+
 from catenary.config import load_catenary
 from catenary.contact_force.draws import draw_section, replicate_seeds
 from catenary.contact_force.laws import design_laws, read_laws
 from catenary.contact_force.outputs import replicates_schema
 from catenary.contact_force.runs import run_batch, run_sobol_batch
 from catenary.contact_force.sensitivity import sobol_design
-from catenary.contact_force.settings import ContactForceSettings, batch_replicates
+from catenary.contact_force.settings import ContactForceSettings, batch_replicates, tolerance_replicates
 from catenary.logs import rule_logger
 from catenary.pantograph import load_pantographs
 from catenary.parquet import settings_hash, write_table
@@ -20,11 +22,6 @@ settings = ContactForceSettings.from_mapping(snakemake.params.contact_force)
 case, batch = snakemake.wildcards.case, int(snakemake.wildcards.batch)
 pantograph = load_pantographs(snakemake.input.pantographs)[settings.pantograph]
 laws = read_laws(snakemake.input.s_opt, snakemake.input.findings, span_type, settings.cw_height)
-if case.startswith("tol_"):
-    tol = settings.tolerance
-    tolerance_mm, sigma_n = (float(v.rstrip("mN")) for v in case[4:].split("_"))
-    laws = laws.with_spreads(dropper_sigma_m=1e-3 * tolerance_mm / tol.sigma_per_tolerance,
-                             messenger_tension_sigma_n=sigma_n)
 replicates, speeds = batch_replicates(settings, case, batch, span_type.n_droppers)
 log.info("%s %s batch %d: indices %s at %s km/h; laws %s", span_type.name, case, batch, replicates, speeds,
          laws.summary())
@@ -34,7 +31,16 @@ if case == "sobol":
 else:
     design = design_laws(span_type, catenary)
     nominal, _ = draw_section(design, span_type, catenary, settings.n_spans, replicate_seeds(0, 0, design))
-    table = run_batch(laws, nominal, span_type, catenary, pantograph, settings, replicates, case=case,
-                      speeds_kmh=speeds, log=log)
+    if case == "identified":
+        runs = [(case, laws, replicates)]
+    else:
+        runs = [(name, laws.with_spreads(dropper_sigma_m=dropper_sigma_m, messenger_tension_sigma_n=sigma_n), indices)
+                for (name, dropper_sigma_m, sigma_n), indices in tolerance_replicates(settings, replicates)]
+    tables = []
+    for name, case_laws, indices in runs:
+        log.info("%s: replicates %s; laws %s", name, indices, case_laws.summary())
+        tables.append(run_batch(case_laws, nominal, span_type, catenary, pantograph, settings, indices, case=name,
+                                speeds_kmh=speeds, log=log))
+    table = pd.concat(tables, ignore_index=True)
 write_table(table, Path(snakemake.output.batch), replicates_schema(table.columns),
             config_hash=settings_hash(snakemake.config), kind="contact_force_batch")

@@ -115,7 +115,17 @@ def test_settings_cases_and_batches_cover_every_replicate():
     s = ContactForceSettings.from_mapping({"replicates": 10, "batch_size": 4})
     got = [r for b in range(n_batches(s, "identified", 9)) for r in batch_replicates(s, "identified", b, 9)[0]]
     assert got == list(range(10))
-    assert s.cases()[:2] == ["identified", "sobol"] and len(s.cases()) == 2 + 4 * 2
+    assert s.cases() == ["identified", "sobol", "tolerance"]
+    # The tolerance study's 4 × 2 combinations of 8 sections each, in batches of 4: every
+    # (combination, replicate) once, the combinations' laws as the study's σ = t / 2.
+    from catenary.contact_force.settings import tolerance_replicates
+
+    pairs = [(c[0], r) for b in range(n_batches(s, "tolerance", 9))
+             for c, rs in tolerance_replicates(s, batch_replicates(s, "tolerance", b, 9)[0]) for r in rs]
+    combinations = s.tolerance_cases()
+    assert len(combinations) == 4 * 2 and len(set(pairs)) == len(pairs) == 8 * s.tolerance.replicates
+    assert sorted(pairs) == sorted((c[0], r) for c in combinations for r in range(s.tolerance.replicates))
+    assert combinations[0] == ("tol_2mm_200N", pytest.approx(0.001), 200.0)
 
 
 @pytest.mark.slow

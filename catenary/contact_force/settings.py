@@ -14,7 +14,8 @@ from ..identification.settings import merged_mapping
 from ..schema import check
 from ..truth import Law
 
-__all__ = ["ContactForceSettings", "Limits", "ToleranceStudy", "batch_replicates", "n_batches", "sobol_size"]
+__all__ = ["ContactForceSettings", "Limits", "ToleranceStudy", "batch_replicates", "n_batches", "sobol_size",
+           "tolerance_replicates"]
 
 
 @dataclass(frozen=True)
@@ -146,11 +147,18 @@ class ContactForceSettings:
                 "sensitivity": {"n_samples": self.sensitivity_samples}}
 
     def cases(self) -> list[str]:
-        """Cases of the batch jobs: ``identified``, ``sobol`` (the sensitivity's design) and one
-        per tolerance combination (``tol_<dropper mm>mm_<T_MW σ>N``)."""
+        """Cases of the batch jobs: ``identified``, ``sobol`` (the sensitivity's design) and
+        ``tolerance`` (every combination of the tolerance study, :meth:`tolerance_cases`, in one
+        run of batches: each combination's few sections would otherwise pay a job's start-up,
+        ≈ 3 s, for ≈ 4 s of runs)."""
+        return ["identified", "sobol", "tolerance"]
+
+    def tolerance_cases(self) -> list[tuple[str, float, float]]:
+        """The tolerance study's combinations: ``(name, dropper σ [m], T_MW σ [N])``, named
+        ``tol_<dropper tolerance mm>mm_<T_MW σ>N`` (the ``case`` of their rows)."""
         tol = self.tolerance
-        return ["identified", "sobol"] + [f"tol_{1e3 * t:g}mm_{s:g}N" for t in tol.dropper_tolerances_m
-                                             for s in tol.messenger_tension_sigmas_n]
+        return [(f"tol_{1e3 * t:g}mm_{s:g}N", t / tol.sigma_per_tolerance, s) for t in tol.dropper_tolerances_m
+                for s in tol.messenger_tension_sigmas_n]
 
 
 def sobol_size(settings: ContactForceSettings) -> int:
@@ -164,17 +172,32 @@ def _case_size(settings: ContactForceSettings, case: str, n_droppers: int) -> in
         return settings.replicates
     if case == "sobol":
         return sobol_size(settings)
-    return settings.tolerance.replicates
+    if case == "tolerance":
+        return len(settings.tolerance_cases()) * settings.tolerance.replicates
+    raise ValueError(f"case: expected one of {settings.cases()}, got {case!r}")
 
 
 def batch_replicates(settings: ContactForceSettings, case: str, batch: int,
                      n_droppers: int) -> tuple[list[int], tuple[float, ...]]:
-    """Replicate (or design row) indices and speeds of batch ``batch`` of ``case``."""
+    """Replicate (or design row) indices and speeds of batch ``batch`` of ``case`` (``tolerance``:
+    indices over its combinations in turn, :func:`tolerance_replicates`)."""
     total = _case_size(settings, case, n_droppers)
     speeds = (settings.speeds_kmh if case == "identified" else
               (settings.speeds_kmh[0],) if case == "sobol" else (settings.tolerance.speed_kmh,))
     start = batch * settings.batch_size
     return list(range(start, min(start + settings.batch_size, total))), speeds
+
+
+def tolerance_replicates(settings: ContactForceSettings, indices: list[int]) -> list[tuple[tuple[str, float, float],
+                                                                                            list[int]]]:
+    """The ``tolerance`` case's indices as ``(combination, its replicates)``: index k is
+    replicate ``k mod R`` of combination ``k div R`` (R sections per combination)."""
+    per = settings.tolerance.replicates
+    combinations = settings.tolerance_cases()
+    out: dict[int, list[int]] = {}
+    for k in indices:
+        out.setdefault(k // per, []).append(k % per)
+    return [(combinations[c], replicates) for c, replicates in out.items()]
 
 
 def n_batches(settings: ContactForceSettings, case: str, n_droppers: int) -> int:

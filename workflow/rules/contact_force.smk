@@ -12,7 +12,7 @@ rule contact_force_batch:
     output:
         batch=f"{RESULTS}/{{span_type}}/contact_force/batches/{{case}}_{{batch}}.parquet",
     wildcard_constraints:
-        case="identified|sobol|tol_[^/]+",
+        case="identified|sobol|tolerance",
         batch="[0-9]+",
     params:
         contact_force=span_type_settings("contact_force"),
