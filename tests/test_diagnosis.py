@@ -311,7 +311,7 @@ def tension_start(catenary, n2):
 
 
 def test_candidate_refits_reach_the_maximum_of_a_tight_nelder_mead(tension_start):
-    # A candidate's refit: Fisher scoring (catenary.diagnosis.scoring) by default, Nelder–Mead at
+    # A candidate's refit: Fisher scoring (catenary.identification.scoring) by default, Nelder–Mead at
     # xtol 0.01 / ftol 0.001 where the scoring cannot certify (DiagnosisSettings). The test needs
     # Δℓ to about 0.1 (critical values ≈ 10, BIC margin 6): on 60 spans with a planted T_MW
     # spread, the scoring must certify the spread's refit and end within 0.01 of a tight
@@ -343,7 +343,7 @@ def test_a_scoring_that_cannot_certify_its_maximum_hands_over_to_nelder_mead(ten
     import functools
 
     from catenary.diagnosis import problem as problem_module
-    from catenary.diagnosis.scoring import fisher_scoring
+    from catenary.identification.scoring import fisher_scoring
 
     settings, ctx, start = tension_start
     joint = ctx.problem(("messenger_tension_variability",))

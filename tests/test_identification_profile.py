@@ -55,3 +55,29 @@ def test_profile_interval_of_the_tension_spread(catenary, n2, start, t_mw_sigma_
         assert wald["sigma_low"] > 0.0 or ("messenger_tension_n.sigma" in result.at_lower_bound
                                            and np.isnan(wald["sigma_low"]))
     assert mu.n_evaluations > 0 and sigma.n_evaluations > 0
+
+
+def test_profile_by_fisher_scoring_agrees_with_nelder_mead_at_a_fraction_of_the_cost(catenary, n2, start):
+    # Each profile point re-optimises the other 12 coordinates. Fisher scoring from the quadratic
+    # approximation's profile path must reach the same profile as Nelder–Mead: both stop within
+    # INNER_FTOL = 0.005 of the inner maximum, which moves an end by ≈ 0.1 % of its distance
+    # from s_opt, so the ends must agree within 0.5 % of the interval's half-width (5 times
+    # that; measured on draws 7–9: within 0.09 %). It must also cost less: measured 3.4–3.5
+    # times fewer evaluations of J; asked for at least 1.5 times, so that a scoring that fails
+    # to certify and falls back to Nelder–Mead at every point fails the test.
+    model = make_likelihood(n2, catenary, np.zeros((1, 9)), start=start, n_samples=2).model
+    means, sigmas = _laws(start, 818.0)
+    data = simulate_deflections(model, means, sigmas, 117, seed=7, system_height_mode=MODE)
+    lik = make_likelihood(n2, catenary, data, start=start, n_samples=2000, seed=1, system_height_mode=MODE)
+    result = identify(lik, start)
+    assert result.converged
+    names = ("messenger_tension_n", "dropper_5_length_m")
+    scored = profile_intervals(lik, start, result, parameters=names)
+    simplex = profile_intervals(lik, start, result, parameters=names, method="nelder-mead")
+    assert len(scored) == len(simplex) == 3                  # T_MW μ and σ, dropper 5 σ
+    for a, b in zip(scored, simplex):
+        half_width = 0.5 * (b.high - b.low)
+        assert (a.parameter, a.statistic) == (b.parameter, b.statistic)
+        assert abs(a.low - b.low) < 0.005 * half_width, (a, b)
+        assert abs(a.high - b.high) < 0.005 * half_width, (a, b)
+    assert 1.5 * sum(a.n_evaluations for a in scored) < sum(b.n_evaluations for b in simplex)

@@ -5,7 +5,8 @@ missing physical effect explains it, and how much of the gap adding it closes.
 * :mod:`.model` — design rows → model W with the active effects (the campaign's physics);
 * :mod:`.problem` — J over the base laws and the effects' magnitudes, refits, curvature;
 * :mod:`.locate` — residuals, whitened eigenvalues with a bootstrap band, Mahalanobis
-  distances, catch-all gains, Fisher information, score screen, detectable magnitudes;
+  distances, catch-all gains, score screen, detectable magnitudes (the Fisher information is
+  :mod:`catenary.identification.scoring`'s);
 * :mod:`.refits` — one candidate's score screen, refit and likelihood-ratio test, and the
   candidates of a step in worker processes;
 * :mod:`.runner` — the forward selection (locate, name, add, repeat) and its verdicts;

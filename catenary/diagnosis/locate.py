@@ -39,7 +39,7 @@ from scipy.linalg import solve_triangular
 from ..identification.likelihood import GaussianFit
 
 __all__ = ["Locate", "bootstrap_eigenvalues", "detectable_magnitude", "efficient_information",
-           "expected_information", "locate", "mixture_sf", "required_noncentrality", "score_pvalue",
+           "locate", "mixture_sf", "required_noncentrality", "score_pvalue",
            "secant_noncentrality"]
 
 
@@ -147,35 +147,6 @@ def locate(data_w_m: np.ndarray, fit: GaussianFit, j: float, model_draws_m: np.n
                   eigen_high=np.quantile(boot, 0.975, axis=0), mahalanobis_sq=d2, cvm_p_value=float(cvm.pvalue),
                   free_shift_gain=float(0.5 * nu * whitened_r @ whitened_r), free_gaussian_gain=float(j_free - j),
                   residual_covariance_m2=s / nu)
-
-
-def expected_information(moments: list[tuple[np.ndarray, np.ndarray]], derivative_steps: list, n_spans: int,
-                         reference: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    """Fisher information of ν Gaussian spans from finite-difference moments.
-
-    Parameters
-    ----------
-    moments : list of ((m₊, Σ₊), (m₋, Σ₋)) per coordinate
-        The model's mean and covariance at the coordinate moved up and down (for a one-sided
-        difference, ``(m₋, Σ₋)`` is the reference itself).
-    derivative_steps : list of float
-        The step of each coordinate's difference (``+h − (−h) = 2h`` central, ``h`` one-sided).
-    n_spans : int
-        ν.
-    reference : (m, Σ)
-        Mean and covariance at the point.
-    """
-    sigma = reference[1]
-    inv = np.linalg.inv(sigma)
-    dm = [(up[0] - down[0]) / h for (up, down), h in zip(moments, derivative_steps)]
-    ds = [(up[1] - down[1]) / h for (up, down), h in zip(moments, derivative_steps)]
-    p = len(dm)
-    info = np.empty((p, p))
-    a = [inv @ x for x in ds]
-    for i in range(p):
-        for k in range(i + 1):
-            info[i, k] = info[k, i] = dm[i] @ inv @ dm[k] + 0.5 * np.trace(a[i] @ a[k])
-    return n_spans * info
 
 
 def efficient_information(info: np.ndarray, tested: np.ndarray) -> np.ndarray:

@@ -8,7 +8,7 @@ reach it (a log scale could not).
 
 A model is refitted from a warm start — the current optimum with the new effect at its null —
 under the same design, N and likelihood as the model without it: by Fisher scoring where it
-certifies its maximum (:mod:`.scoring`), by Nelder–Mead otherwise or on request.
+certifies its maximum (:mod:`catenary.identification.scoring`), by Nelder–Mead otherwise or on request.
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ from ..identification.dependence import robust_covariance, widening
 from ..identification.design import RandomInput
 from ..identification.fit import ParameterBox, ScaledProblem, observed_covariance, run_nelder_mead
 from ..identification.likelihood import Likelihood, LikelihoodValue
+from ..identification.scoring import fisher_scoring
 from .candidates import CANDIDATES, CandidateParameter
-from .scoring import fisher_scoring
 
 __all__ = ["Fit", "JointProblem", "refit", "with_covariance"]
 
@@ -173,9 +173,9 @@ def refit(problem: JointProblem, theta0: np.ndarray, box: ParameterBox, *, base_
 
     ``method="nelder-mead"``: Nelder–Mead, simplex steps ``base_step`` on the base coordinates and
     ``effect_step`` on the effects', stopped at ``xtol`` in θ and ``ftol`` in J.
-    ``"fisher-scoring"``: Fisher scoring first (:mod:`.scoring`); if it does not certify its
-    maximum, Nelder–Mead as above from the better of its end and ``theta0``, with what is left
-    of the budget. The fit's message says which ended it.
+    ``"fisher-scoring"``: Fisher scoring first (:mod:`catenary.identification.scoring`); if it does
+    not certify its maximum, Nelder–Mead as above from the better of its end and ``theta0``, with
+    what is left of the budget. The fit's message says which ended it.
     """
     lo, hi = problem.bounds(box)
     theta0 = np.clip(np.asarray(theta0, dtype=float), lo, hi)

@@ -30,18 +30,18 @@ from ..identification.design import design_dimension, draw_unit_design
 from ..identification.fit import ParameterBox, messenger_tension_bounds_n
 from ..identification.likelihood import Likelihood
 from .candidates import CANDIDATES
-from .locate import (Locate, efficient_information, expected_information, locate, mixture_sf,
+from ..identification.scoring import STEP as _BASE_STEP
+from ..identification.scoring import expected_information, gaussian_moments
+from .locate import (Locate, efficient_information, locate, mixture_sf,
                      required_noncentrality, score_pvalue, secant_noncentrality)
 from .model import EffectSampler, ModelSet, design_columns, relative_cost
 from .problem import Fit, JointProblem, refit, with_covariance
-from .scoring import STEP as _BASE_STEP
-from .scoring import gaussian_moments
 
 __all__ = ["CandidateTest", "DiagnosisContext", "base_moments_at", "continue_refit", "refit_and_test",
            "refit_and_test_all"]
 
-# _BASE_STEP (from .scoring): the step, in θ, of the base coordinates' finite differences for the
-# Fisher information, the same as the scoring's.
+# _BASE_STEP (from identification.scoring): the step, in θ, of the base coordinates' finite
+# differences for the Fisher information, the same as the scoring's.
 #: Step of a shift's finite differences, in units of its scale; a spread's variance step is (this × scale)².
 _EFFECT_STEP = 0.25
 

@@ -3,6 +3,8 @@
 * :mod:`.design` — random inputs, their Gamma laws and the unit-cube design drawn once;
 * :mod:`.likelihood` — J(s) = Σ_k ln p_W(W_k; s) with a Gaussian or kernel estimate of p_W;
 * :mod:`.fit` — maximisation of J (Nelder–Mead or BOBYQA) and standard errors;
+* :mod:`.scoring` — Fisher scoring of J from a warm start (profile points, the diagnosis's refits);
+* :mod:`.profile` — profile-likelihood intervals, and "no spread detected";
 * :mod:`.result` — the s_opt table, the J trace and confidence intervals;
 * :mod:`.synthetic` — synthetic measured deflections from known laws;
 * :mod:`.settings` — the ``identification`` block of the workflow config;

@@ -47,7 +47,7 @@ from ..progress import Progress
 from .design import (DEFAULT_DESIGN, MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, default_inputs,
                      design_dimension, draw_unit_design)
 from .dependence import robust_covariance, widened_covariance
-from .likelihood import Likelihood
+from .likelihood import Likelihood, LikelihoodValue
 from .result import IdentificationResult, ParameterEstimate
 
 __all__ = ["COVARIANCES", "METHODS", "ParameterBox", "ScaledProblem", "identify", "make_likelihood",
@@ -174,10 +174,12 @@ class ScaledProblem:
         sigmas[self.free_sigma_idx] *= np.exp(theta[nm:])
         return means, sigmas
 
-    def j(self, theta: np.ndarray) -> float:
+    def evaluate(self, theta: np.ndarray) -> LikelihoodValue:
+        """J and its diagnostics at θ (:class:`~.likelihood.LikelihoodValue`); traced as :meth:`j`."""
         theta = np.array(theta, dtype=float)
         means, sigmas = self.laws(theta)
-        value = self.likelihood(means, sigmas)
+        result = self.likelihood.evaluate(means, sigmas)
+        value = result.j
         self.n_evaluations += 1
         if self.recording:
             self.trace.append((theta, means, sigmas, value))
@@ -185,7 +187,10 @@ class ScaledProblem:
                 if np.isfinite(value) and value > self.best_j:
                     self.best_j = value
                 self.progress.update(len(self.trace), f"best J so far {self.best_j:.3f}")
-        return value
+        return result
+
+    def j(self, theta: np.ndarray) -> float:
+        return self.evaluate(theta).j
 
     def log_densities(self, theta: np.ndarray) -> np.ndarray | None:
         """``ln p_W(W_k; s(θ))`` per measured span (None where J is not finite); not traced."""

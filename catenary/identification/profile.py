@@ -10,8 +10,14 @@ likelihood does not make that approximation: for one coordinate θ_i of the opti
 and the interval at level 1 − α is ``{t : 2 (J(s_opt) − P(t)) ≤ χ²₁(1 − α)}`` (Wilks). Each
 P(t) re-optimises the other parameters under the same design (common random numbers: J is
 deterministic), warm-started on the profile path of the quadratic approximation
-``θ_−i(t) = θ̂_−i + C_−i,i / C_ii (t − θ̂_i)``. The two ends are found by a secant iteration on
-the signed root ``r(t) = ±√(2 (J(s_opt) − P(t)))``, nearly linear in t, from the Wald end.
+``θ_−i(t) = θ̂_−i + C_−i,i / C_ii (t − θ̂_i)``, by Fisher scoring (:mod:`.scoring`; Gaussian
+estimator) and by bounded Nelder–Mead from the scoring's end where it does not certify its
+maximum (and always with the kernel estimator, which has no Gaussian law to score). From that
+start the scoring certifies in 1–3 iterations: on the default campaign's N3 the 13 intervals
+took 3 032 evaluations of J against 8 133 by Nelder–Mead alone, every end within 0.05 % of
+Nelder–Mead's (``tests/test_identification_profile.py`` holds the two to each other). The two
+ends are found by a secant iteration on the signed root ``r(t) = ±√(2 (J(s_opt) − P(t)))``,
+nearly linear in t, from the Wald end.
 
 Spans that share a mast: when the identification reports the sandwich-widened covariance
 (:mod:`.dependence`), the critical drop of coordinate i is ``max(λ_i, 1) χ²₁(1 − α)/2`` — the
@@ -34,8 +40,9 @@ from scipy.optimize import minimize
 
 from .design import RandomInput
 from .fit import ParameterBox, ScaledProblem
-from .likelihood import Likelihood
+from .likelihood import Likelihood, LikelihoodValue
 from .result import IdentificationResult
+from .scoring import fisher_scoring
 
 __all__ = ["INNER_FTOL", "ProfileInterval", "profile_intervals"]
 
@@ -76,8 +83,38 @@ class ProfileInterval:
         return self.statistic == "sigma" and self.low_at_boundary
 
 
-def _profile(problem: ScaledProblem, theta_opt, cov, i, t, lo, hi, max_evaluations):
-    """P(t) and the maximising θ (the other coordinates re-optimised by bounded Nelder–Mead)."""
+@dataclass
+class _Held:
+    """``problem`` with coordinate ``i`` held at ``theta[i]``: J over the other coordinates."""
+
+    problem: ScaledProblem
+    theta: np.ndarray
+    others: np.ndarray
+
+    @property
+    def likelihood(self) -> Likelihood:
+        return self.problem.likelihood
+
+    @property
+    def n_evaluations(self) -> int:
+        return self.problem.n_evaluations
+
+    def full(self, x: np.ndarray) -> np.ndarray:
+        theta = self.theta.copy()
+        theta[self.others] = x
+        return theta
+
+    def evaluate(self, x: np.ndarray) -> LikelihoodValue:
+        return self.problem.evaluate(self.full(x))
+
+    def objective(self, x: np.ndarray) -> float:
+        return self.problem.objective(self.full(x))
+
+
+def _profile(problem: ScaledProblem, theta_opt, cov, i, t, lo, hi, max_evaluations, method):
+    """P(t) and the maximising θ: the other coordinates re-optimised from the quadratic
+    approximation's profile path, by Fisher scoring (Gaussian estimator) and by bounded
+    Nelder–Mead from its end where the scoring does not certify its maximum."""
     others = np.flatnonzero(np.arange(theta_opt.size) != i)
     guess = theta_opt.copy()
     if np.isfinite(cov[i, i]) and cov[i, i] > 0:
@@ -86,30 +123,31 @@ def _profile(problem: ScaledProblem, theta_opt, cov, i, t, lo, hi, max_evaluatio
     guess = np.clip(guess, lo, hi)
     if others.size == 0:
         return problem.j(guess), guess
+    held = _Held(problem, guess, others)
+    x0 = guess[others]
+    if method == "fisher-scoring" and problem.likelihood.estimator == "gaussian":
+        scored = fisher_scoring(held, x0, lo[others], hi[others], np.zeros(others.size, dtype=bool), ftol=INNER_FTOL,
+                                max_evaluations=max_evaluations)
+        if scored.certified:
+            return scored.j, held.full(scored.theta)
+        if np.isfinite(scored.j):
+            x0 = scored.theta
+        max_evaluations = max(max_evaluations - scored.n_evaluations, 1)
     scale = np.sqrt(np.diag(cov))[others]
     scale = np.where(np.isfinite(scale) & (scale > 0), scale, 0.3)       # 0.3: no curvature known
     step = np.clip(0.3 * scale, 1e-3, 0.5)
-    x0 = guess[others]
     step = np.where(x0 + step <= hi[others], step, -step)
     simplex = np.vstack([x0, x0 + np.diag(step)])
-
-    def objective(x):
-        theta = guess.copy()
-        theta[others] = x
-        return problem.objective(theta)
-
-    res = minimize(objective, x0, method="Nelder-Mead", bounds=list(zip(lo[others], hi[others])),
+    res = minimize(held.objective, x0, method="Nelder-Mead", bounds=list(zip(lo[others], hi[others])),
                    options=dict(initial_simplex=simplex, xatol=1e-2, fatol=INNER_FTOL, maxfev=max_evaluations,
                                 adaptive=True))
-    best = guess.copy()
-    best[others] = res.x
-    return -float(res.fun), best
+    return -float(res.fun), held.full(res.x)
 
 
 def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], result: IdentificationResult, *,
                       parameters: tuple[str, ...] | None = None, box: ParameterBox = ParameterBox(),
                       level: float = 0.95, max_evaluations: int = 400, tolerance: float = 0.05,
-                      max_steps: int = 8) -> list[ProfileInterval]:
+                      max_steps: int = 8, method: str = "fisher-scoring") -> list[ProfileInterval]:
     """Profile-likelihood intervals of every free mean and σ of ``result`` (module docstring).
 
     Parameters
@@ -132,6 +170,9 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
         Accuracy of each end in units of the parameter's standard error.
     max_steps : int
         Widening or secant steps per end, at most.
+    method : {"fisher-scoring", "nelder-mead"}
+        Each re-optimisation of the other coordinates: Fisher scoring, then Nelder–Mead where it
+        does not certify its maximum (module docstring), or Nelder–Mead alone.
 
     Returns
     -------
@@ -140,6 +181,8 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
     """
     if not 0.0 < level < 1.0:
         raise ValueError(f"level: expected a probability in (0, 1), got {level!r}")
+    if method not in ("fisher-scoring", "nelder-mead"):
+        raise ValueError(f"method: expected 'fisher-scoring' or 'nelder-mead', got {method!r}")
     free_means = tuple(p[:-3] for p in result.free_parameters if p.endswith(".mu"))
     free_sigmas = tuple(p[:-6] for p in result.free_parameters if p.endswith(".sigma"))
     problem = ScaledProblem.for_inputs(likelihood, start, free_means, free_sigmas)
@@ -160,7 +203,7 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
 
         def root(t):
             """Signed-root distance of the profile at θ_i = t below J(s_opt) (≥ 0)."""
-            value, _ = _profile(problem, theta_opt, cov, i, t, lo, hi, max_evaluations)
+            value, _ = _profile(problem, theta_opt, cov, i, t, lo, hi, max_evaluations, method)
             return np.sqrt(2.0 * max(j_opt - value, 0.0))
 
         critical = critical_base * float(np.sqrt(inflation[i]))

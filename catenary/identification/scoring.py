@@ -1,4 +1,8 @@
-"""Fisher scoring of a candidate's refit: J's own Gaussian law gives the curvature.
+"""Fisher scoring of J: its own Gaussian law gives the curvature.
+
+Two re-optimisations from a warm start use it: the diagnosis's refit of a candidate effect
+(:func:`catenary.diagnosis.problem.refit`) and each point of a profile likelihood
+(:mod:`.profile`: the other coordinates re-optimised with one held).
 
 J is the log-likelihood of ν measured spans under the Gaussian law N(m(θ), Σ(θ)) of the model's
 W (:class:`~catenary.identification.likelihood.Likelihood`, Gaussian estimator). Its expected
@@ -23,7 +27,12 @@ steps in a row gaining less than ``ftol`` end the scoring), or stop at a point t
 improve. The result is therefore **certified** only where a full
 scoring step (λ = 0, uncapped) predicts a gain below ``ftol`` — the quadratic model, accurate
 there, says the maximum is reached; otherwise :func:`fisher_scoring` says why it stopped and the
-caller refits by Nelder–Mead (:func:`.problem.refit`), from the better point.
+caller goes on by Nelder–Mead from the better point.
+
+In a profile the start (the quadratic approximation's profile path) is close to the maximum:
+on the default campaign's N3 every one of the 62 profile points was certified, after 1–3
+iterations (26–76 evaluations, against 150–250 by Nelder–Mead), the 26 interval ends within
+0.05 % of Nelder–Mead's.
 """
 
 from __future__ import annotations
@@ -32,11 +41,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .locate import expected_information
+__all__ = ["ScoringResult", "expected_information", "fisher_scoring", "gaussian_moments"]
 
-__all__ = ["ScoringResult", "fisher_scoring", "gaussian_moments"]
-
-#: Central-difference step of a coordinate in θ (:mod:`.refits` takes its base coordinates' step from here).
+#: Central-difference step of a coordinate in θ (the diagnosis's refits take their base coordinates'
+#: step from here).
 STEP = 0.02
 #: Step of a spread's variance v = t² (t = 0.25: a quarter of the spread's typical size).
 VARIANCE_STEP = 0.0625
@@ -78,13 +86,42 @@ def gaussian_moments(value) -> tuple[np.ndarray, np.ndarray]:
     return f.mean, f.chol @ f.chol.T
 
 
+def expected_information(moments: list[tuple[np.ndarray, np.ndarray]], derivative_steps: list, n_spans: int,
+                         reference: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Fisher information of ν Gaussian spans from finite-difference moments.
+
+    Parameters
+    ----------
+    moments : list of ((m₊, Σ₊), (m₋, Σ₋)) per coordinate
+        The model's mean and covariance at the coordinate moved up and down (for a one-sided
+        difference, ``(m₋, Σ₋)`` is the reference itself).
+    derivative_steps : list of float
+        The step of each coordinate's difference (``+h − (−h) = 2h`` central, ``h`` one-sided).
+    n_spans : int
+        ν.
+    reference : (m, Σ)
+        Mean and covariance at the point.
+    """
+    sigma = reference[1]
+    inv = np.linalg.inv(sigma)
+    dm = [(up[0] - down[0]) / h for (up, down), h in zip(moments, derivative_steps)]
+    ds = [(up[1] - down[1]) / h for (up, down), h in zip(moments, derivative_steps)]
+    p = len(dm)
+    info = np.empty((p, p))
+    a = [inv @ x for x in ds]
+    for i in range(p):
+        for k in range(i + 1):
+            info[i, k] = info[k, i] = dm[i] @ inv @ dm[k] + 0.5 * np.trace(a[i] @ a[k])
+    return n_spans * info
+
+
 def fisher_scoring(problem, theta0: np.ndarray, lo: np.ndarray, hi: np.ndarray, spread: np.ndarray, *, ftol: float,
                    max_iterations: int = 12, max_evaluations: int = 4000) -> ScoringResult:
     """Maximise ``problem``'s J from ``theta0`` by damped Fisher scoring (module docstring).
 
     Parameters
     ----------
-    problem : JointProblem
+    problem : JointProblem or ScaledProblem
         Its ``evaluate(θ)`` returns a :class:`~catenary.identification.likelihood.LikelihoodValue`
         whose ``fit`` holds the Gaussian law of W (None where J is not finite).
     theta0 : numpy.ndarray
