@@ -1,25 +1,16 @@
-"""Rule correct_section: iterative dynamic correction of one section's spans (paper Fig. 5).
+"""Rule correct_section: iterative dynamic correction of one section's spans (paper Fig. 5)."""
 
-A section that carries the model-error budget gets 2 threads (the rule's ``threads``): its
-sources are moved in that many worker processes, each with one BLAS thread (reset here before
-NumPy loads, as Snakemake sets the BLAS threads to the job's).
-"""
+from pathlib import Path
 
-from catenary.blas import one_blas_thread
+import pandas as pd
 
-one_blas_thread(override=True)
-
-from pathlib import Path  # noqa: E402
-
-import pandas as pd  # noqa: E402
-
-from catenary.config import load_catenary  # noqa: E402
-from catenary.correction import CorrectionSettings, correct_spans, corrected_schema  # noqa: E402
-from catenary.logs import rule_logger  # noqa: E402
-from catenary.model_error.correction import run_shifts, shift_columns  # noqa: E402
-from catenary.model_error.sources import ModelErrorSettings  # noqa: E402
-from catenary.pantograph import load_pantographs  # noqa: E402
-from catenary.parquet import read_table, settings_hash, write_table  # noqa: E402
+from catenary.config import load_catenary
+from catenary.correction import CorrectionSettings, correct_spans, corrected_schema
+from catenary.logs import rule_logger
+from catenary.model_error.correction import run_shifts, shift_columns
+from catenary.model_error.sources import ModelErrorSettings
+from catenary.pantograph import load_pantographs
+from catenary.parquet import read_table, settings_hash, write_table
 
 log = rule_logger("correct_section", snakemake.log[0])
 section_id = snakemake.wildcards.section_id
@@ -47,9 +38,9 @@ def measure_budget(rows, result, run_pantograph, speed_m_s, direction, profile):
     """The model-error budget's shift of this run's corrected W, one row per span and source."""
     shifts.append(run_shifts(rows, result, catenary, run_pantograph, speed_m_s, budget.sources, mode=settings.mode,
                              time_step_s=settings.time_step_s, direction=direction, speed_profile=profile,
-                             n_max=n_max, workers=snakemake.threads))
-    log.info("section %s, run %s: model-error budget measured for %d sources (%d at once)", section_id,
-             rows["run_id"].iloc[0], len(budget.sources), snakemake.threads)
+                             n_max=n_max))
+    log.info("section %s, run %s: model-error budget measured for %d sources", section_id, rows["run_id"].iloc[0],
+             len(budget.sources))
 
 
 corrected, convergence = correct_spans(spans, catenary, pantograph, settings, log=log, report=report,

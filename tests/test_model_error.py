@@ -14,7 +14,7 @@ from .test_correction import measured_run, measuring, true_line  # noqa: F401  (
 W = [f"w{i}_m" for i in range(1, 10)]
 
 
-def _corrected(catenary, n2, pantograph, mode, sources, tolerance_m, time_step_s=0.005, max_iterations=5, workers=1):
+def _corrected(catenary, n2, pantograph, mode, sources, tolerance_m, time_step_s=0.005, max_iterations=5):
     spans = measured_run(true_line(catenary, n2), catenary, pantograph, mode, time_step_s)
     settings = CorrectionSettings(mode=mode, time_step_s=time_step_s, tolerance_m=tolerance_m,
                                   max_iterations=max_iterations, quasi_static_start=False)
@@ -22,7 +22,7 @@ def _corrected(catenary, n2, pantograph, mode, sources, tolerance_m, time_step_s
 
     def budget(rows, result, panto, speed, direction, profile):
         tables.append(run_shifts(rows, result, catenary, panto, speed, sources, mode=mode, time_step_s=time_step_s,
-                                 direction=direction, speed_profile=profile, workers=workers))
+                                 direction=direction, speed_profile=profile))
 
     corrected, _ = correct_spans(spans, catenary, pantograph, settings, after_run=budget)
     return spans, corrected, tables[0]
@@ -39,21 +39,6 @@ def test_force_shift_is_the_quasi_static_uplift_scaled(catenary, n2, measuring):
     assert np.abs(correction).max() > 3e-3
     assert (shifts["status"] == "").all()
     np.testing.assert_allclose(shifts[W].to_numpy(), correction / 36.0, atol=2e-6)
-
-
-def test_sources_moved_in_worker_processes_give_the_same_shifts(catenary, n2, measuring):
-    # The sources are independent: moved in two forked processes (a budget section's 2 threads
-    # in the workflow) every shift, residual and pass count is the same number as moved one after
-    # another in this process.
-    import pandas as pd
-
-    sources = [Source("measuring_force", "force_n", std=1.0),
-               Source("head_mass", "pantograph.masses_kg.0", relative_std=0.1),
-               Source("speed", "speed", relative_std=0.01)]
-    _, _, alone = _corrected(catenary, n2, measuring, "dynamic", sources, 1e-4, time_step_s=0.01)
-    _, _, forked = _corrected(catenary, n2, measuring, "dynamic", sources, 1e-4, time_step_s=0.01, workers=2)
-    assert set(alone["source"]) == {s.name for s in sources}
-    pd.testing.assert_frame_equal(forked, alone, check_exact=True)
 
 
 def test_linear_shifts_match_a_full_correction_at_the_perturbed_inputs(catenary, n2, measuring):

@@ -35,8 +35,6 @@ correction.
 
 from __future__ import annotations
 
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -107,8 +105,7 @@ class Shift:
 def w_shifts(section: Section, measured: np.ndarray, catenary: Catenary, pantograph: Pantograph,
              speed_m_s: float, sources: Sequence[Source], *, mode: str, time_step_s: float, direction: int = 1,
              speed_profile: tuple[np.ndarray, np.ndarray] | None = None, k: float = 1.0,
-             tolerance_m: float = 5e-6, max_passes: int = 8, memory: int = 3,
-             workers: int = 1) -> dict[str, Shift]:
+             tolerance_m: float = 5e-6, max_passes: int = 8, memory: int = 3) -> dict[str, Shift]:
     """Shift of the corrected static W of every dropper when each source moves by ``k`` standard
     uncertainties (module docstring).
 
@@ -133,9 +130,6 @@ def w_shifts(section: Section, measured: np.ndarray, catenary: Catenary, pantogr
         Largest number of moves of the model per source.
     memory : int
         Past passes mixed into each move (:func:`_anderson_step`; 0: the correction's plain step).
-    workers : int
-        Sources moved at once, in forked processes (each should use one BLAS thread); the
-        sources are independent, so the shifts do not depend on it.
 
     Returns
     -------
@@ -157,93 +151,50 @@ def w_shifts(section: Section, measured: np.ndarray, catenary: Catenary, pantogr
     on_d = np.asarray(measured, dtype=bool)[section.dropper_span]
     on_m = np.r_[measured, False] | np.r_[False, measured]
     first = np.searchsorted(section.dropper_span, section.dropper_span)
-    run = _Run(section=section, catenary=catenary, pantograph=pantograph, speed_m_s=speed_m_s, mode=mode,
-               time_step_s=time_step_s, direction=direction, speed_profile=speed_profile, points=points,
-               place=np.r_[np.arange(n_d) - first, np.full(points.size - n_d, n_d)],   # dropper rank; masts
-               on=np.r_[on_d, on_m], k=k, tolerance_m=tolerance_m, max_passes=max_passes, memory=memory)
-    run.base = run.simulate_over(section, pantograph, catenary, speed_m_s)
-    run.base_w = _static_w(section, catenary)
-    run.targets = StaticModel(section, catenary).solve().cw_height_at(section.cw_clamp_chainage_m)
-    if workers <= 1 or len(sources) <= 1:
-        return {source.name: run.shift(source) for source in sources}
-    _WORKER["run"] = run
-    try:
-        with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork")) as pool:
-            return dict(zip((source.name for source in sources), pool.map(_worker_shift, sources)))
-    finally:
-        _WORKER.clear()
+    place = np.r_[np.arange(n_d) - first, np.full(points.size - n_d, n_d)]   # dropper rank in its span; masts
+    on = np.r_[on_d, on_m]
 
-
-#: The run of :func:`w_shifts` that its forked worker processes inherit.
-_WORKER: dict = {}
-
-
-def _worker_shift(source: Source) -> Shift:
-    return _WORKER["run"].shift(source)
-
-
-@dataclass
-class _Run:
-    """One run's base pass and what every source's iteration needs (:func:`w_shifts`)."""
-
-    section: Section
-    catenary: Catenary
-    pantograph: Pantograph
-    speed_m_s: float
-    mode: str
-    time_step_s: float
-    direction: int
-    speed_profile: tuple[np.ndarray, np.ndarray] | None
-    points: np.ndarray
-    place: np.ndarray
-    on: np.ndarray
-    k: float
-    tolerance_m: float
-    max_passes: int
-    memory: int
-    base: np.ndarray | None = None
-    base_w: np.ndarray | None = None
-    targets: np.ndarray | None = None
-
-    def common(self, gap: np.ndarray) -> float:
-        """The largest span-common gap: the mean over the measured spans at each dropper rank
-        (and over the masts), what a systematic of the car's model leaves in every span."""
-        n = self.section.dropper_chainage_m.size + 1
-        sums = np.bincount(self.place[self.on], weights=gap[self.on], minlength=n)
-        counts = np.bincount(self.place[self.on], minlength=n)
+    def common(gap: np.ndarray) -> float:
+        # the largest span-common gap: the mean over the measured spans at each dropper rank
+        # (and over the masts), what a systematic of the car's model leaves in every span
+        sums = np.bincount(place[on], weights=gap[on], minlength=n_d + 1)
+        counts = np.bincount(place[on], minlength=n_d + 1)
         return float(np.max(np.abs(sums[counts > 0] / counts[counts > 0]), initial=0.0))
 
-    def simulate_over(self, model: Section, panto: Pantograph, cat: Catenary, speed: float) -> np.ndarray:
-        kwargs = {"direction": self.direction} if self.direction != 1 else {}
-        if self.speed_profile is not None:
-            kwargs["speed_profile"] = (self.speed_profile[0], self.speed_profile[1] * speed / self.speed_m_s)
-        return measuring_pass(model, cat, panto, speed_m_s=speed, mode=self.mode, time_step_s=self.time_step_s,
-                              chainage_m=self.points, **kwargs).height_m
+    def simulate_over(model: Section, panto: Pantograph, cat: Catenary, speed: float) -> np.ndarray:
+        kwargs = {"direction": direction} if direction != 1 else {}
+        if speed_profile is not None:
+            kwargs["speed_profile"] = (speed_profile[0], speed_profile[1] * speed / speed_m_s)
+        return measuring_pass(model, cat, panto, speed_m_s=speed, mode=mode, time_step_s=time_step_s,
+                              chainage_m=points, **kwargs).height_m
 
-    def shift(self, source: Source) -> Shift:
-        """The correction's own step, with the source's perturbed inputs: move the static heights
-        until the perturbed pass over the moved model reports what the base pass reported."""
-        section, n_d = self.section, self.section.dropper_chainage_m.size
-        inputs = perturbed(source, self.k, self.pantograph, self.catenary, self.speed_m_s)
-        model, x = section, np.zeros(self.points.size)
-        shift = np.zeros_like(self.base_w)
+    base = simulate_over(section, pantograph, catenary, speed_m_s)
+    base_w = _static_w(section, catenary)
+    targets = StaticModel(section, catenary).solve().cw_height_at(section.cw_clamp_chainage_m)
+    out = {}
+    for source in sources:
+        inputs = perturbed(source, k, pantograph, catenary, speed_m_s)
+        model, x = section, np.zeros(points.size)
+        shift = np.zeros_like(base_w)
         best, direct, previous = None, None, np.inf
         xs, fs = [], []
-        for done in range(self.max_passes + 1):
-            gap = self.base - self.simulate_over(model, *inputs)
-            residual = self.common(gap)
+        for done in range(max_passes + 1):
+            # the correction's own step, with the perturbed inputs: move the static heights until
+            # the perturbed pass over the moved model reports what the base pass reported
+            gap = base - simulate_over(model, *inputs)
+            residual = common(gap)
             direct = residual if direct is None else direct
             if best is None or residual < best.residual_m:
                 best = Shift(w_m=shift, residual_m=residual, direct_m=direct, passes=done + 1)
-            if residual < self.tolerance_m or residual > STAGNATION * previous or done == self.max_passes:
+            if residual < tolerance_m or residual > STAGNATION * previous or done == max_passes:
                 break
             previous = residual
-            x = _anderson_step(xs, fs, x, np.where(self.on, gap, 0.0), self.memory)
+            x = _anderson_step(xs, fs, x, np.where(on, gap, 0.0), memory)
             shifted = section.with_cw_support_heights(section.cw_support_heights_m + x[n_d:])
-            model = dropper_lengths_for_cw_heights(shifted, self.catenary, self.targets + x[:n_d],
-                                                   allow_slack=True).section
-            shift = _static_w(model, self.catenary) - self.base_w
-        return Shift(w_m=best.w_m, residual_m=best.residual_m, direct_m=direct, passes=done + 1)
+            model = dropper_lengths_for_cw_heights(shifted, catenary, targets + x[:n_d], allow_slack=True).section
+            shift = _static_w(model, catenary) - base_w
+        out[source.name] = Shift(w_m=best.w_m, residual_m=best.residual_m, direct_m=direct, passes=done + 1)
+    return out
 
 
 def shift_columns(n_max: int) -> list[str]:
@@ -286,15 +237,14 @@ def shifts_table(span_ids: Sequence[str], dropper_span: np.ndarray, shifts: dict
 
 def run_shifts(rows: pd.DataFrame, result, catenary: Catenary, pantograph: Pantograph, speed_m_s: float,
                sources: Sequence[Source], *, mode: str, time_step_s: float, direction: int = 1,
-               speed_profile: tuple[np.ndarray, np.ndarray] | None = None, n_max: int = 9,
-               workers: int = 1) -> pd.DataFrame:
+               speed_profile: tuple[np.ndarray, np.ndarray] | None = None, n_max: int = 9) -> pd.DataFrame:
     """:func:`w_shifts` of one corrected run of spans as a table: one row per measured span and
     source, ``run_id``, ``section_id``, ``span_type``, ``span_id``, ``source``, ``w1_m``… [m per
     standard uncertainty], ``residual_m``, ``direct_m`` and ``passes`` (:class:`Shift`, the
     run's: the residual is the shift's resolution in height) and ``status`` ("" or why the shift
     is not given: the correction failed on the run, a perturbed pass did not converge, or the
     residual stayed above :data:`UNSETTLED` of the direct effect and above
-    :data:`RESOLUTION_FLOOR_M`). ``workers``: sources moved at once (:func:`w_shifts`)."""
+    :data:`RESOLUTION_FLOOR_M`)."""
     if not sources:
         return pd.DataFrame(columns=shift_columns(n_max))
     measured = rows["measured"].to_numpy(dtype=bool) if "measured" in rows else np.ones(len(rows), dtype=bool)
@@ -306,8 +256,7 @@ def run_shifts(rows: pd.DataFrame, result, catenary: Catenary, pantograph: Panto
     else:
         try:
             shifts = w_shifts(result.section, measured, catenary, pantograph, speed_m_s, sources, mode=mode,
-                              time_step_s=time_step_s, direction=direction, speed_profile=speed_profile,
-                              workers=workers)
+                              time_step_s=time_step_s, direction=direction, speed_profile=speed_profile)
         except ConvergenceError as exc:
             failed = f"not measured: a perturbed pass did not converge ({exc})"
     dropper_span = result.section.dropper_span if shifts else np.repeat(np.arange(len(rows)), n_max)

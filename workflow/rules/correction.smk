@@ -1,4 +1,4 @@
-# correction_sections(), model_error_sections() and correction_outputs() live in common.smk: the linter wants functions apart from rules.
+# correction_sections() and correction_outputs() live in common.smk: the linter wants functions apart from rules.
 
 
 rule correct_section:
@@ -14,7 +14,6 @@ rule correct_section:
         model_error=f"{RESULTS}/correction/sections/{{section_id}}_model_error.parquet",
     wildcard_constraints:
         section_id="[^/]+",
-    threads: lambda wc: 2 if wc.section_id in model_error_sections() else 1
     params:
         correction=config["correction"],
         model_error=config.get("model_error"),
