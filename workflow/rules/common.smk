@@ -197,6 +197,20 @@ def correction_sections(wildcards=None):
     return sorted({s for path in outputs for s in pq.read_table(path, columns=["section_id"]).column(0).to_pylist()})
 
 
+def model_error_sections():
+    """Section ids whose correction also measures the model-error budget (rule correct_section
+    starts them first)."""
+    import pandas as pd
+    import pyarrow.parquet as pq
+
+    from catenary.model_error.sources import ModelErrorSettings
+
+    outputs = checkpoints.project.get().output.spans
+    spans = pd.concat([pq.read_table(path, columns=["section_id"]).to_pandas().assign(span_type=span_type)
+                       for span_type, path in zip(SPAN_TYPES, outputs)], ignore_index=True)
+    return ModelErrorSettings.from_mapping(config.get("model_error")).measured_sections(spans)
+
+
 def correction_outputs():
     outputs = expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES)
     outputs += [f"{RESULTS}/correction/convergence.csv", f"{RESULTS}/correction/summary.csv"]
