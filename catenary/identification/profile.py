@@ -13,9 +13,9 @@ deterministic), warm-started on the profile path of the quadratic approximation
 ``θ_−i(t) = θ̂_−i + C_−i,i / C_ii (t − θ̂_i)``, by Fisher scoring (:mod:`.scoring`; Gaussian
 estimator) and by bounded Nelder–Mead from the scoring's end where it does not certify its
 maximum (and always with the kernel estimator, which has no Gaussian law to score). From that
-start the scoring certifies in 1–3 iterations: on the default campaign's N3 the 13 intervals
-took 3 032 evaluations of J against 8 133 by Nelder–Mead alone, every end within 0.05 % of
-Nelder–Mead's (``tests/test_identification_profile.py`` holds the two to each other). The two
+start the scoring certifies in 1–3 iterations: in the default run the 13 intervals took 2 456
+and 3 036 evaluations of J (N2, N3) against 6 861 and 8 133 by Nelder–Mead alone, every end
+within 0.05 % of Nelder–Mead's (``tests/test_identification_profile.py`` holds the two to each other). The two
 ends are found by a secant iteration on the signed root ``r(t) = ±√(2 (J(s_opt) − P(t)))``,
 nearly linear in t, from the Wald end.
 
