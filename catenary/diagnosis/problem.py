@@ -8,7 +8,8 @@ reach it (a log scale could not).
 
 A model is refitted from a warm start — the current optimum with the new effect at its null —
 under the same design, N and likelihood as the model without it: by Fisher scoring where it
-certifies its maximum (:mod:`catenary.identification.scoring`), by Nelder–Mead otherwise or on request.
+certifies its maximum (:mod:`catenary.identification.scoring`), by Nelder–Mead otherwise or on
+request.
 """
 
 from __future__ import annotations

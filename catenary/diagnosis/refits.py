@@ -29,9 +29,9 @@ import numpy as np
 from ..identification.design import design_dimension, draw_unit_design
 from ..identification.fit import ParameterBox, messenger_tension_bounds_n
 from ..identification.likelihood import Likelihood
-from .candidates import CANDIDATES
 from ..identification.scoring import STEP as _BASE_STEP
 from ..identification.scoring import expected_information, gaussian_moments
+from .candidates import CANDIDATES
 from .locate import (Locate, efficient_information, locate, mixture_sf,
                      required_noncentrality, score_pvalue, secant_noncentrality)
 from .model import EffectSampler, ModelSet, design_columns, relative_cost

@@ -684,8 +684,9 @@ def masts_from_trace(samples: pd.DataFrame, catenary: Catenary, settings: Regist
     its supports are followed span by span: the first is where the stagger's reversal is
     strongest within one span length of the stretch's start, placed by its own fit; each next
     one is looked for one span length further (each span type tried, the best fit kept), within
-    ``± search_m``, until the trace ends — a reversal marks each support on its own. With the height alone, whose supports
-    do not, the stretch's whole chain of spans is found at once (:mod:`.chain`). Each stretch is a section (``T01``, ``T02``…), its masts
+    ``± search_m``, until the trace ends — a reversal marks each support on its own. With the
+    height alone, whose supports do not, the stretch's whole chain of spans is found at once
+    (:mod:`.chain`). Each stretch is a section (``T01``, ``T02``…), its masts
     ``T01.000``, ``T01.001``…; chainages are the run's own, rescaled by the odometer scale that
     the supports against the span types' lengths give (:func:`.chain.odometer_scale`). Masts and
     span types come out as a masts table (:func:`catenary.recording.validate_masts`' columns).

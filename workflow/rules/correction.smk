@@ -1,4 +1,5 @@
-# correction_sections(), model_error_sections() and correction_outputs() live in common.smk: the linter wants functions apart from rules.
+# correction_sections(), model_error_sections() and correction_outputs() live in common.smk: the
+# linter wants functions apart from rules.
 
 
 rule correct_section:
