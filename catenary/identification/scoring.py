@@ -14,36 +14,20 @@ needs only the first derivatives of m and Σ, which the central differences of J
 evaluate anyway (2p + 1 evaluations for p coordinates). Each iteration steps by
 ``(I + λ diag I)⁻¹ ∇J`` (Levenberg–Marquardt: λ = 0 is the scoring step; λ grows by 10 while a
 step does not raise J, and shrinks again after one that does), each coordinate's move capped at
-1 in θ (4 for a variance) times a trust radius, inside the box. A spread enters as its variance
-v = t² (t = σ/scale is the optimiser's coordinate): J is flat in t at the null, where its
-gradient in v is not, so the step can leave the null; its difference is one-sided there.
-
-Three refinements, each measured on the default campaign's diagnosis (below):
-
-* **J's own curvature on the diagonal.** The central differences give J's second difference in
-  each coordinate for free; I is rescaled to it (``I_ij √(d_i d_j)``, d_i the ratio of the two,
-  clipped to [1/4, 10]; Fisher's correlations are kept, so the matrix stays positive definite).
-  Where the model misses a spread the data have — the diagnosis's first step — J's curvature in
-  the dropper σ is about twice I's (N2: 250–720 against 130–370), and pure scoring overshoots.
-* **A trust radius.** A capped step that gains at least 3/4 of what its quadratic model
-  predicted lets the next go 4 times further (up to 64 caps); a poor one halves it (not below
-  1); a step to where J is not finite (beyond the model's range) cuts it to a quarter of that
-  step. A measuring-force offset 7.5 units from the null took 8 capped iterations to reach.
-* **Certification at every iteration**, before any damped step: λ left from earlier iterations
-  does not stop a point where the full step predicts less than ``ftol`` from being certified.
+1 in θ (4 for a variance), inside the box. A spread enters as its variance v = t² (t = σ/scale
+is the optimiser's coordinate): J is flat in t at the null, where its gradient in v is not, so
+the step can leave the null; its difference is one-sided there.
 
 Where the model fits the data the scoring step is nearly Newton's and converges in a few
 iterations: on the default campaign's N2 (117 spans, N = 10⁴) the named T_MW spread's refit
 took 162 evaluations to J within 10⁻⁴ of Nelder–Mead's after 1 409. Where it does not (an
 effect standing in for another, J's maximum far from the null along a poorly modelled
-direction), the quadratic model is not J and the iterations crawl, or stop at a point they
-cannot improve. The result is therefore **certified** only where a full scoring step (λ = 0,
-uncapped) predicts a gain below ``ftol`` — the quadratic model says the maximum is reached;
-two steps in a row gaining less than ``ftol`` end the scoring, certified if the full step
-then predicts less than ``ftol`` too. Otherwise :func:`fisher_scoring` says why it stopped and
-the caller goes on by Nelder–Mead from the better point, with its full simplex: a smaller one
-after a crawl lost a maximum away from the scoring's end (the small profile's N3 dropper creep
-in step 1: Δℓ 0.015 against 8.79; tried again 2026-11-26, not kept).
+direction), the expected information is not J's curvature and the iterations crawl (two
+steps in a row gaining less than ``ftol`` end the scoring), or stop at a point they cannot
+improve. The result is therefore **certified** only where a full
+scoring step (λ = 0, uncapped) predicts a gain below ``ftol`` — the quadratic model, accurate
+there, says the maximum is reached; otherwise :func:`fisher_scoring` says why it stopped and the
+caller goes on by Nelder–Mead from the better point.
 
 In a profile the start (the quadratic approximation's profile path) is close to the maximum:
 on the default campaign's N3 (in-process, 2026-11-26) every one of the 62 profile points was
@@ -72,8 +56,6 @@ MAX_MOVE = 1.0
 MAX_VARIANCE_MOVE = 4.0
 #: Trials of the damping λ in one iteration before the scoring gives up.
 MAX_DAMPING_TRIALS = 6
-#: Largest multiple of the move caps that a trust region grown by good steps reaches.
-MAX_RADIUS = 64.0
 
 
 @dataclass(frozen=True)
@@ -136,15 +118,6 @@ def expected_information(moments: list[tuple[np.ndarray, np.ndarray]], derivativ
     return n_spans * info
 
 
-def _observed_diagonal(info: np.ndarray, curvature: np.ndarray) -> np.ndarray:
-    """``info`` rescaled so that its diagonal is J's own curvature where that was measured."""
-    ratio = np.ones(info.shape[0])
-    ok = np.isfinite(curvature) & (curvature > 0.0) & (np.diag(info) > 0.0)
-    ratio[ok] = np.clip(curvature[ok] / np.diag(info)[ok], 0.25, 10.0)
-    d = np.sqrt(ratio)
-    return info * np.outer(d, d)
-
-
 def fisher_scoring(problem, theta0: np.ndarray, lo: np.ndarray, hi: np.ndarray, spread: np.ndarray, *, ftol: float,
                    max_iterations: int = 12, max_evaluations: int = 4000) -> ScoringResult:
     """Maximise ``problem``'s J from ``theta0`` by damped Fisher scoring (module docstring).
@@ -187,12 +160,11 @@ def fisher_scoring(problem, theta0: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
 
     if current.fit is None:
         return result(False, f"J not finite at the start ({current.status})")
-    damping, small_gains, radius = 0.0, 0, 1.0
+    damping, small_gains = 0.0, 0
     for iteration in range(1, max_iterations + 1):
         if problem.n_evaluations - n0 + 2 * x.size + MAX_DAMPING_TRIALS > max_evaluations:
             return result(False, f"evaluation budget reached after {iteration - 1} iterations")
         moments, widths, gradient = [], [], np.zeros(x.size)
-        curvature = np.full(x.size, np.nan)
         usable = np.ones(x.size, dtype=bool)
         for i in range(x.size):
             up, down = x.copy(), x.copy()
@@ -213,10 +185,7 @@ def fisher_scoring(problem, theta0: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
             moments.append((gaussian_moments(v_up), gaussian_moments(v_down)))
             widths.append(width)
             gradient[i] = (v_up.j - v_down.j) / width
-            if v_up is not current and v_down is not current and np.isclose(up[i] - x[i], x[i] - down[i]):
-                curvature[i] = -(v_up.j - 2.0 * current.j + v_down.j) / (0.5 * width) ** 2
         info = expected_information(moments, widths, n_spans, gaussian_moments(current))
-        info = _observed_diagonal(info, curvature)
         # A coordinate on its bound whose gradient points out of the box stays there.
         free = usable & ~((x <= xlo) & (gradient < 0.0)) & ~((x >= xhi) & (gradient > 0.0))
         seen = usable & (np.diag(info) > 0.0)
@@ -227,50 +196,30 @@ def fisher_scoring(problem, theta0: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
             return result(False, f"no coordinate left to move at iteration {iteration}")
         a = info[np.ix_(free, free)]
         g = gradient[free]
-        # Certified where a full scoring step (λ = 0, within the move caps) predicts a gain below
-        # ftol, whatever the damping left by earlier iterations: at the maximum, whether or not
-        # J's rounding lets this last step raise it.
-        full = np.zeros(x.size)
-        full[free] = np.linalg.lstsq(a, g, rcond=1e-12)[0]
-        full_gain = float(g @ full[free] - 0.5 * full[free] @ a @ full[free])
-        if float(np.max(np.abs(full) / cap)) <= 1.0 and full_gain < ftol:
-            trial_x = np.clip(x + full, xlo, xhi)
-            trial = problem.evaluate(theta_of(trial_x))
-            if trial.j > current.j:
-                x, current = trial_x, trial
-            return result(True, f"converged after {iteration} iterations (predicted gain {full_gain:.2g})")
         for _ in range(MAX_DAMPING_TRIALS):
             move = np.zeros(x.size)
             move[free] = np.linalg.lstsq(a + damping * np.diag(np.diag(a)), g, rcond=1e-12)[0]
-            largest = float(np.max(np.abs(move) / (radius * cap)))
+            largest = float(np.max(np.abs(move) / cap))
             if largest > 1.0:
                 move /= largest
             predicted = float(g @ move[free] - 0.5 * move[free] @ a @ move[free])
             trial_x = np.clip(x + move, xlo, xhi)
             trial = problem.evaluate(theta_of(trial_x))
+            if damping == 0.0 and largest <= 1.0 and predicted < ftol:
+                # A full scoring step that can gain less than ftol: at the maximum, whether or
+                # not J's rounding lets this last step raise it.
+                if trial.j > current.j:
+                    x, current = trial_x, trial
+                return result(True, f"converged after {iteration} iterations (predicted gain {predicted:.2g})")
             if trial.j > current.j:
                 break
             damping = max(1e-3, 10.0 * damping)
-            if not np.isfinite(trial.j):         # beyond the model's range: a shorter step too
-                radius = float(np.max(np.abs(move) / cap)) / 4.0
         else:
             return result(False, f"no step raised J at iteration {iteration} (damping {damping:g})")
         gain = float(trial.j - current.j)
-        if largest > 1.0 and gain > 0.75 * predicted:    # a capped step as good as predicted: allow longer ones
-            radius = min(radius * 4.0, MAX_RADIUS)
-        elif gain < 0.25 * predicted:
-            radius = max(radius / 2.0, 1.0)
         x, current = trial_x, trial
         damping = damping / 10.0 if damping > 1e-3 else 0.0
         small_gains = small_gains + 1 if gain < ftol else 0
-        if small_gains == 2:
-            # Two gains below ftol: at the maximum if the full scoring step there (λ = 0,
-            # uncapped) predicts less than ftol too; otherwise the quadratic model is wrong here.
-            full = np.linalg.lstsq(a, g, rcond=1e-12)[0]
-            full_gain = 0.5 * float(g @ full)
-            if 0.0 <= full_gain < ftol:
-                return result(True, f"converged after {iteration} iterations (two gains below {ftol:g}, "
-                                    f"a full step predicting {full_gain:.2g})")
-            return result(False, f"crawling at iteration {iteration} (two gains below {ftol:g}; a full step "
-                                 f"predicting {full_gain:.3g})")
+        if small_gains == 2:             # crawling where the quadratic model is wrong: hand over
+            return result(False, f"crawling at iteration {iteration} (two gains below {ftol:g})")
     return result(False, f"not converged in {max_iterations} iterations")
