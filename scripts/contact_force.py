@@ -30,15 +30,18 @@ nominal = pd.DataFrame(rows)
 identified = replicates[replicates["case"] == "identified"]
 summary = criteria_summary(identified)
 tolerance = tolerance_table(replicates, settings.tolerance.sigma_per_tolerance)
-design = sobol_design(laws, settings)
-runs = replicates[replicates["case"] == "sobol"].sort_values("replicate")
 sobol = []
-for criterion in ("std_force_n", "statistical_min_n"):
-    r = sobol_indices(design, runs[criterion].to_numpy(float), groups(laws), settings.sensitivity_samples,
-                      f"{criterion} at {settings.speeds_kmh[0]:g} km/h")
-    log.info("Sobol %s: first %s, total %s, first + second %.2f", r.criterion, r.first.round(3), r.total.round(3),
-             r.sum_first_second)
-    sobol.append(r)
+if settings.sensitivity_enabled:
+    design = sobol_design(laws, settings)
+    runs = replicates[replicates["case"] == "sobol"].sort_values("replicate")
+    for criterion in ("std_force_n", "statistical_min_n"):
+        r = sobol_indices(design, runs[criterion].to_numpy(float), groups(laws), settings.sensitivity_samples,
+                          f"{criterion} at {settings.speeds_kmh[0]:g} km/h")
+        log.info("Sobol %s: first %s, total %s, first + second %.2f", r.criterion, r.first.round(3),
+                 r.total.round(3), r.sum_first_second)
+        sobol.append(r)
+else:
+    log.info("%s: sensitivity skipped (contact_force.sensitivity.n_samples: 0)", span_type.name)
 replicates = replicates[replicates["case"] != "sobol"]
 write_contact_force(ContactForcePaths.in_folder(snakemake.params.folder), span_type.name, settings, replicates, nominal,
                     summary, tolerance, sobol, laws.summary(), config_hash=settings_hash(snakemake.config))

@@ -107,6 +107,9 @@ def test_sobol_estimates_of_a_function_with_known_indices(catenary, n2):
     assert r.sum_first_second == pytest.approx(1.0, abs=0.2)
     assert r.sum_interval[0] < 1.0 < r.sum_interval[1]      # measured [0.94, 1.31]: the bootstrap covers the truth
     assert np.all(r.first_interval[:, 0] <= r.first_interval[:, 1])
+    from catenary.contact_force.sensitivity import SOBOL_COLUMNS
+
+    assert tuple(r.table().columns) == SOBOL_COLUMNS          # the header a skipped sensitivity writes alone
 
 
 def test_settings_cases_and_batches_cover_every_replicate():
@@ -126,6 +129,22 @@ def test_settings_cases_and_batches_cover_every_replicate():
     assert len(combinations) == 4 * 2 and len(set(pairs)) == len(pairs) == 8 * s.tolerance.replicates
     assert sorted(pairs) == sorted((c[0], r) for c in combinations for r in range(s.tolerance.replicates))
     assert combinations[0] == ("tol_2mm_200N", pytest.approx(0.001), 200.0)
+
+
+def test_a_skipped_sensitivity_plans_no_sobol_runs_and_a_too_small_one_is_refused():
+    # n_samples 0 (the default run's): no sobol batch is planned, the other cases keep theirs;
+    # 1–3 are refused by the schema (the bootstrap intervals need at least 4 base samples).
+    from catenary.contact_force.settings import n_batches
+    from catenary.errors import ConfigError
+
+    skipped = ContactForceSettings.from_mapping({"sensitivity": {"n_samples": 0}})
+    assert not skipped.sensitivity_enabled and skipped.cases() == ["identified", "tolerance"]
+    assert n_batches(skipped, "sobol", 9) == 0 and n_batches(skipped, "identified", 9) >= 1
+    on = ContactForceSettings.from_mapping({"sensitivity": {"n_samples": 4}})
+    assert on.sensitivity_enabled and n_batches(on, "sobol", 9) == -(-4 * 12 // on.batch_size)
+    for bad in (1, 3, -1):
+        with pytest.raises(ConfigError, match="n_samples"):
+            ContactForceSettings.from_mapping({"sensitivity": {"n_samples": bad}})
 
 
 @pytest.mark.slow

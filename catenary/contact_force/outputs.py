@@ -3,8 +3,8 @@
 ``replicates.parquet`` (one row per replicate, case and speed), ``summary.csv``
 (:func:`.summary.criteria_summary` of the identified laws' replicates), ``nominal.csv`` (the same
 criteria on the nominal geometry), ``tolerance.csv`` (:func:`.summary.tolerance_table`),
-``sensitivity.csv`` (Sobol indices), ``histograms.png``, ``sobol.png``,
-``tolerance.png`` and ``report.md``.
+``sensitivity.csv`` (Sobol indices; its header only when the sensitivity is skipped),
+``histograms.png``, ``sobol.png`` (saying so when skipped), ``tolerance.png`` and ``report.md``.
 """
 
 from __future__ import annotations
@@ -19,10 +19,15 @@ import pyarrow as pa
 from ..parquet import write_table
 from ..plots import plt, save_figure
 from .runs import CRITERIA, VIOLATIONS
-from .sensitivity import SobolResult
+from .sensitivity import SOBOL_COLUMNS, SobolResult
 from .settings import ContactForceSettings
 
-__all__ = ["ContactForcePaths", "replicates_schema", "write_contact_force"]
+__all__ = ["ContactForcePaths", "SENSITIVITY_SKIPPED", "replicates_schema", "write_contact_force"]
+
+#: What the report and ``sobol.png`` say when ``contact_force.sensitivity.n_samples`` is 0.
+SENSITIVITY_SKIPPED = ("Sensitivity not computed (contact_force.sensitivity.n_samples: 0): at the N a short run "
+                       "affords the Sobol indices' errors are as large as the indices (±0.5 at N = 8); N = 64 "
+                       "(768 dynamic runs per span type) gives total indices within about ±0.2.")
 
 _LIMIT_OF = {"mean_force_n": "mean_force_above_target", "statistical_min_n": "statistical_min_below_limit",
              "max_support_uplift_m": "uplift_above_limit", "std_force_n": "std_above_limit"}
@@ -178,8 +183,10 @@ def report_markdown(span_type: str, settings: ContactForceSettings, summary: pd.
                          f"{_pct(r['p_std_above_limit'], r['p_std_above_limit_low'], r['p_std_above_limit_high'])} | "
                          f"{_pct(r['p_statistical_min_below_limit'], r['p_statistical_min_below_limit_low'], r['p_statistical_min_below_limit_high'])} |")
         lines.append("")
-    if sobol:
-        lines += ["## Which spread drives the contact-force spread", ""]
+    lines += ["## Which spread drives the contact-force spread", ""]
+    if not sobol:
+        lines += [SENSITIVITY_SKIPPED, ""]
+    else:
         for r in sobol:
             lines.append(f"{r.criterion}: Sobol indices by OpenTURNS' Mauntz–Kucherenko pick-freeze on the dynamic "
                          f"model (N = {r.n_base}: {r.n_base * (2 * len(r.groups) + 2)} sections; 95 % bootstrap "
@@ -205,10 +212,17 @@ def write_contact_force(paths: ContactForcePaths, span_type: str, settings: Cont
     summary.to_csv(paths.summary, index=False, float_format="%.6g")
     nominal.to_csv(paths.nominal, index=False, float_format="%.6g")
     tolerance.to_csv(paths.tolerance, index=False, float_format="%.6g")
-    (pd.concat([r.table() for r in sobol], ignore_index=True) if sobol else pd.DataFrame()).to_csv(
-        paths.sensitivity, index=False, float_format="%.6g")
+    sensitivity = (pd.concat([r.table() for r in sobol], ignore_index=True) if sobol
+                   else pd.DataFrame(columns=list(SOBOL_COLUMNS)))
+    sensitivity.to_csv(paths.sensitivity, index=False, float_format="%.6g")
     histogram_figure(replicates, nominal, settings, paths.histograms, f"{span_type}: criteria over random sections")
-    sobol_figure(sobol, paths.sobol, f"{span_type}: variance shares of the contact-force criteria")
+    if sobol:
+        sobol_figure(sobol, paths.sobol, f"{span_type}: variance shares of the contact-force criteria")
+    else:
+        fig, ax = plt.subplots(figsize=(6, 1.5))
+        ax.text(0.5, 0.5, SENSITIVITY_SKIPPED, ha="center", va="center", wrap=True)
+        ax.axis("off")
+        save_figure(fig, paths.sobol)
     if len(tolerance):
         tolerance_figure(tolerance, paths.tolerance_figure, f"{span_type}: maintenance tolerances at "
                          f"{settings.tolerance.speed_kmh:g} km/h")

@@ -33,7 +33,7 @@ from .draws import groups
 from .laws import SectionLaws
 from .settings import ContactForceSettings
 
-__all__ = ["SobolResult", "sobol_design", "sobol_indices", "sobol_seeds"]
+__all__ = ["SOBOL_COLUMNS", "SobolResult", "sobol_design", "sobol_indices", "sobol_seeds"]
 
 
 def sobol_design(laws: SectionLaws, settings: ContactForceSettings) -> np.ndarray:
@@ -55,6 +55,12 @@ def sobol_seeds(laws: SectionLaws, settings: ContactForceSettings, row: np.ndarr
             for j, g in enumerate(groups(laws))}
 
 
+#: Columns of ``sensitivity.csv`` (:meth:`SobolResult.table`).
+SOBOL_COLUMNS = ("criterion", "group", "first_order", "first_order_low", "first_order_high", "total_order",
+                 "total_order_low", "total_order_high", "sum_first_second_order", "sum_first_second_order_low",
+                 "sum_first_second_order_high", "n_base")
+
+
 @dataclass(frozen=True)
 class SobolResult:
     """Sobol indices of one criterion over the input groups."""
@@ -71,6 +77,7 @@ class SobolResult:
     sum_interval: tuple[float, float] = (float("nan"), float("nan"))
 
     def table(self) -> pd.DataFrame:
+        """One row per group, :data:`SOBOL_COLUMNS`."""
         return pd.DataFrame({"criterion": self.criterion, "group": list(self.groups), "first_order": self.first,
                              "first_order_low": self.first_interval[:, 0], "first_order_high": self.first_interval[:, 1],
                              "total_order": self.total, "total_order_low": self.total_interval[:, 0],

@@ -94,7 +94,8 @@ class ContactForceSettings:
     limits : Limits
     tolerance : ToleranceStudy
     sensitivity_samples : int
-        Base size N of the pick-freeze design (N (2k + 2) dynamic runs for k = 5 groups).
+        Base size N of the pick-freeze design (N (2k + 2) dynamic runs for k = 5 groups); 0
+        skips the sensitivity (no ``sobol`` batches, :attr:`sensitivity_enabled`).
     """
 
     speeds_kmh: tuple[float, ...] = (300.0, 320.0)
@@ -146,12 +147,17 @@ class ContactForceSettings:
                                     "replicates": tol.replicates, "speed_kmh": tol.speed_kmh},
                 "sensitivity": {"n_samples": self.sensitivity_samples}}
 
+    @property
+    def sensitivity_enabled(self) -> bool:
+        """Whether the Sobol indices are computed (``sensitivity.n_samples`` > 0)."""
+        return self.sensitivity_samples > 0
+
     def cases(self) -> list[str]:
         """Cases of the batch jobs: ``identified``, ``sobol`` (the sensitivity's design) and
         ``tolerance`` (every combination of the tolerance study, :meth:`tolerance_cases`, in one
         run of batches: each combination's few sections would otherwise pay a job's start-up,
-        ≈ 3 s, for ≈ 4 s of runs)."""
-        return ["identified", "sobol", "tolerance"]
+        ≈ 3 s, for ≈ 4 s of runs); no ``sobol`` when the sensitivity is skipped."""
+        return ["identified", *(["sobol"] if self.sensitivity_enabled else []), "tolerance"]
 
     def tolerance_cases(self) -> list[tuple[str, float, float]]:
         """The tolerance study's combinations: ``(name, dropper σ [m], T_MW σ [N])``, named
