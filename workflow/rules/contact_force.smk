@@ -14,8 +14,6 @@ rule contact_force_batch:
     wildcard_constraints:
         case="identified|sobol|tolerance",
         batch="[0-9]+",
-    # The identified laws' batches run at both speeds (twice a tolerance batch's runs): longest first.
-    priority: lambda wc: 1 if wc.case == "identified" else 0
     params:
         contact_force=span_type_settings("contact_force"),
     log:

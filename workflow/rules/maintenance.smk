@@ -19,9 +19,6 @@ rule maintenance:
         band=f"{RESULTS}/{{span_type}}/maintenance/population_band.csv",
         band_coverage=reported(f"{RESULTS}/{{span_type}}/maintenance/population_coverage.csv", "maintenance_band_coverage", MAINTENANCE, "Posterior band: coverage"),
         band_figure=reported(f"{RESULTS}/{{span_type}}/maintenance/population_band.png", "maintenance_band", MAINTENANCE, "Posterior band"),
-    # The run's last chain (identification → maintenance → maintenance_repair, 10 + 28 s): started
-    # before the contact-force batches that become ready with it, not after them, one core idle.
-    priority: 2
     params:
         identification=span_type_settings("identification"),
         maintenance=config.get("maintenance"),
@@ -70,7 +67,6 @@ rule maintenance_repair:
     output:
         table=f"{RESULTS}/{{span_type}}/maintenance/repair.csv",
         summary=reported(f"{RESULTS}/{{span_type}}/maintenance/repair_summary.csv", "maintenance_repair", MAINTENANCE, "What fixing buys"),
-    priority: 2
     params:
         contact_force=span_type_settings("contact_force"),
     log:
