@@ -63,13 +63,16 @@ def timeline(log: Path) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def newest_run_log() -> Path:
-    """The newest Snakemake log under ``.snakemake/log/`` that ran a job (dry runs and lints
-    write logs too)."""
-    for path in sorted((ROOT / ".snakemake" / "log").glob("*.snakemake.log"), reverse=True):
+def newest_run_log(results: Path) -> Path:
+    """The newest Snakemake log that ran a job (dry runs and lints write logs too), under the
+    ``.snakemake/log/`` of the project holding ``results`` (the nearest folder above it that has
+    one: another clone's results are timed by that clone's logs, not this tree's)."""
+    results = results.resolve()
+    folder = next((f for f in (results, *results.parents) if (f / ".snakemake" / "log").is_dir()), ROOT)
+    for path in sorted((folder / ".snakemake" / "log").glob("*.snakemake.log"), reverse=True):
         if "Finished jobid:" in path.read_text():
             return path
-    raise SystemExit("no Snakemake log with a finished job under .snakemake/log/")
+    raise SystemExit(f"no Snakemake log with a finished job under {folder / '.snakemake' / 'log'}")
 
 
 def main() -> None:
@@ -78,7 +81,7 @@ def main() -> None:
     parser.add_argument("--log", default=None)
     parser.add_argument("--prefix", default="make_run")
     args = parser.parse_args()
-    log = Path(args.log) if args.log else newest_run_log()
+    log = Path(args.log) if args.log else newest_run_log(Path(args.results))
     per_job = jobs(Path(args.results))
     per_rule = per_job.groupby("rule").agg(jobs=("wall_s", "size"), cpu_s=("cpu_s", "sum"),
                                            wall_s=("wall_s", "sum"), longest_s=("wall_s", "max"))
