@@ -2,15 +2,13 @@
 
 from pathlib import Path
 
-import pandas as pd
-
 from catenary.config import load_catenary
 from catenary.contact_force.draws import draw_section, replicate_seeds
 from catenary.contact_force.laws import design_laws, read_laws
 from catenary.contact_force.outputs import replicates_schema
-from catenary.contact_force.runs import run_batch, run_sobol_batch
+from catenary.contact_force.runs import run_case_batch, run_sobol_batch
 from catenary.contact_force.sensitivity import sobol_design
-from catenary.contact_force.settings import ContactForceSettings, batch_replicates, tolerance_replicates
+from catenary.contact_force.settings import ContactForceSettings, batch_replicates
 from catenary.logs import rule_logger
 from catenary.pantograph import load_pantographs
 from catenary.parquet import settings_hash, write_table
@@ -31,16 +29,7 @@ if case == "sobol":
 else:
     design = design_laws(span_type, catenary)
     nominal, _ = draw_section(design, span_type, catenary, settings.n_spans, replicate_seeds(0, 0, design))
-    if case == "identified":
-        runs = [(case, laws, replicates)]
-    else:
-        runs = [(name, laws.with_spreads(dropper_sigma_m=dropper_sigma_m, messenger_tension_sigma_n=sigma_n), indices)
-                for (name, dropper_sigma_m, sigma_n), indices in tolerance_replicates(settings, replicates)]
-    tables = []
-    for name, case_laws, indices in runs:
-        log.info("%s: replicates %s; laws %s", name, indices, case_laws.summary())
-        tables.append(run_batch(case_laws, nominal, span_type, catenary, pantograph, settings, indices, case=name,
-                                speeds_kmh=speeds, log=log))
-    table = pd.concat(tables, ignore_index=True)
+    table = run_case_batch(laws, nominal, span_type, catenary, pantograph, settings, replicates, case=case,
+                           speeds_kmh=speeds, log=log)
 write_table(table, Path(snakemake.output.batch), replicates_schema(table.columns),
             config_hash=settings_hash(snakemake.config), kind="contact_force_batch")

@@ -24,9 +24,9 @@ from ..section import Section
 from .draws import draw_section, replicate_seeds
 from .sensitivity import sobol_seeds
 from .laws import SectionLaws
-from .settings import ContactForceSettings, Limits
+from .settings import ContactForceSettings, Limits, tolerance_replicates
 
-__all__ = ["CRITERIA", "FEATURES", "VIOLATIONS", "run_batch", "run_section", "run_sobol_batch", "section_state",
+__all__ = ["CRITERIA", "FEATURES", "VIOLATIONS", "run_batch", "run_case_batch", "run_section", "run_sobol_batch", "section_state",
            "static_features", "violations"]
 
 #: Criteria of a run (EN 50318 / EN 50367), in the units of their names.
@@ -119,6 +119,28 @@ def run_batch(laws: SectionLaws, nominal: Section, span_type: SpanType, catenary
             rows.append({"case": case, "replicate": int(r), **row, **features, "static_slack_droppers": slack})
         progress.update(k + 1, f"replicate {r}: σ_F " + ", ".join(f"{x['std_force_n']:.1f}" for x in runs) + " N")
     return pd.DataFrame(rows)
+
+
+def run_case_batch(laws: SectionLaws, nominal: Section, span_type: SpanType, catenary: Catenary,
+                   pantograph: Pantograph, settings: ContactForceSettings, replicates, *, case: str, speeds_kmh,
+                   log=None) -> pd.DataFrame:
+    """:func:`run_batch` for a batch of the ``identified`` case (the identified laws) or of the
+    ``tolerance`` case, whose indices run each combination's laws (:meth:`SectionLaws.with_spreads`
+    at the combination's dropper and T_MW σ) and keep its name as their ``case``."""
+    if case == "identified":
+        runs = [(case, laws, list(replicates))]
+    elif case == "tolerance":
+        runs = [(name, laws.with_spreads(dropper_sigma_m=dropper_sigma_m, messenger_tension_sigma_n=sigma_n), indices)
+                for (name, dropper_sigma_m, sigma_n), indices in tolerance_replicates(settings, replicates)]
+    else:
+        raise ValueError(f"case: expected 'identified' or 'tolerance', got {case!r}")
+    tables = []
+    for name, case_laws, indices in runs:
+        if log is not None:
+            log.info("%s: replicates %s; laws %s", name, indices, case_laws.summary())
+        tables.append(run_batch(case_laws, nominal, span_type, catenary, pantograph, settings, indices, case=name,
+                                speeds_kmh=speeds_kmh, log=log))
+    return pd.concat(tables, ignore_index=True)
 
 
 def run_sobol_batch(laws: SectionLaws, span_type: SpanType, catenary: Catenary, pantograph: Pantograph,
