@@ -1,6 +1,6 @@
 # Two commands for a fresh machine with Python 3.11 and make:
 #   make run   — set up .venv and run the default workflow
-#   make test  — set up .venv and run the tests, the linter, dry runs and the small profile
+#   make test  — set up .venv and run the linter, dry runs and the tests (the shipped example end to end)
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed
 CORES ?= 2
 SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 
-.PHONY: setup cluster-setup run own-data paper unlock test test-slow test-cluster docs bench bench-line validate clean
+.PHONY: setup cluster-setup run own-data paper unlock test test-pipeline test-slow test-cluster docs bench bench-line validate clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -37,16 +37,23 @@ paper: setup
 unlock: setup
 	$(SMK) --unlock --configfile config/config.yaml
 
-# The small profile runs before pytest: the `pipeline` tests check its results against its truth.
-# pytest runs last so that its summary is the closing line, on $(CORES) processes (pytest-xdist;
-# "worksteal": an idle process takes tests queued for a busy one).
+# The linter, dry runs of both configs, then pytest on $(CORES) processes (pytest-xdist; "worksteal":
+# an idle process takes tests queued for a busy one), among them the shipped example through the
+# rules from ingest to diagnosis and its report (tests/test_own_data.py). pytest runs last so that
+# its summary is the closing line.
 test: setup
 	$(SMK) --lint
 	$(SMK) --dry-run --quiet --configfile config/config.yaml
 	$(SMK) --dry-run --quiet --configfile config/test.yaml
+	$(BIN)/python -m pytest -n $(CORES) --dist worksteal -m 'not slow and not validation and not pipeline' --durations=10
+
+# The whole workflow on the small profile (config/test.yaml: campaign → … → contact force,
+# maintenance and the report, into results/ci), then the `pipeline` tests that check it against
+# its own truth and open its report in a headless browser. CI runs it after make test.
+test-pipeline: setup
 	$(SMK) --cores $(CORES) --configfile config/test.yaml --report results/ci/report.html --report-after-run
 	bash tests/install_browser.sh
-	$(BIN)/python -m pytest -n $(CORES) --dist worksteal -m 'not slow and not validation' --durations=10
+	$(BIN)/python -m pytest -n $(CORES) --dist worksteal -m pipeline --durations=5
 
 # Calibration of the standard errors and convergence of the dynamic model (CI runs it after make test).
 test-slow: setup

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The report's browser test (tests/test_report.py) opens results/ci/report.html in Debian's
-# chromium, headless. make test installs it when it is missing and this is a Debian root shell
+# chromium, headless. make test-pipeline installs it when it is missing and this is a Debian root shell
 # (an 81 MB package; 13 s here, the package lists already fetched); otherwise it says why the
 # browser test will be skipped.
 set -euo pipefail

@@ -194,7 +194,7 @@ def tension_run(catenary, n2, tmp_path_factory):
 # The two diagnoses of 117 spans below take ≈ 10 min together on 2 cores: `make validate`
 # (marker `validation`). Each is one draw of what the replicate tests there check over many
 # (tests/test_diagnosis_replicates.py: T_MW σ 600 N named with its size, then nothing; no false
-# alarm in 19 of 20 null replicates). `make test` checks the same forward selection end to end on
+# alarm in 19 of 20 null replicates). `make test-pipeline` checks the same forward selection end to end on
 # the small profile (tests/test_pipeline_truth.py: the T_MW spread named, then nothing; the files
 # it writes).
 @pytest.mark.validation

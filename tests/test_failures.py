@@ -30,7 +30,7 @@ EXAMPLE_SETTINGS = "registration:\n  enabled: false\nprojection:\n  check_cuts: 
 
 def _snakemake(tmp_path, recording, masts, target: str, extra: str = EXAMPLE_SETTINGS) -> subprocess.CompletedProcess:
     """Run the workflow on ``recording`` and ``masts`` into tmp_path/results up to ``target`` (a
-    path under that folder), with make test's small settings and ``extra`` (default: the
+    path under that folder), with the small profile's settings and ``extra`` (default: the
     example's own settings)."""
     results = tmp_path / "results"
     own = tmp_path / "own.yaml"

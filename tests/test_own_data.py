@@ -6,13 +6,14 @@ a spike, a drop-out the projection tolerates and one that rejects its span, a ma
 every fourth span type is left blank. `config/example.yaml` runs it with the default
 `span_types: [N2, N3]`: the run must finish, write the identification and the diagnosis of N2,
 start no job for N3 (a type the data do not hold) and account for every span. The test adds
-config/test.yaml's smaller designs (as make test's profile) and diagnoses one step over the three
+config/test.yaml's smaller designs (the small profile's) and diagnoses one step over the three
 candidates that matter on these spans, and leaves out the correction's model-error budget
-(make test's small profile runs it), so that it costs ≈ 75 s; the whole diagnosis of the
+(make test-pipeline's small profile runs it), so that it costs ≈ 55–75 s; the whole diagnosis of the
 example (9 candidates, 3 steps) names nothing for sure: it finds the spans' smooth shapes
 ambiguous between a T_MW spread and a ΔH–dropper correlation (adjusted p 5·10⁻⁷), which is
 what a half-sine of σ 4 mm per span looks like to both.
-Marker ``pipeline``: make test runs it after the small profile.
+It needs nothing but the repository, so make test runs it: the workflow end to end through the
+rules, from a recording the campaign code did not write.
 """
 
 import subprocess
@@ -21,8 +22,6 @@ import pandas as pd
 import pytest
 
 from .conftest import ROOT, workflow_dir
-
-pytestmark = pytest.mark.pipeline
 
 
 def test_shipped_example_runs_the_measurement_pipeline_for_its_span_type(tmp_path):

@@ -3,8 +3,8 @@
 identification must land on that truth within tolerances set by its size.
 
 These tests read what the small profile wrote (``results/ci/validation/``), so they run after
-it: ``make test`` runs the profile, then pytest with them (marker ``pipeline``; a bare
-``pytest`` leaves them out). A regression in any stage fails CI here.
+it: ``make test-pipeline`` runs the profile, then pytest with them (marker ``pipeline``; a bare
+``pytest`` and ``make test`` leave them out). A regression in any stage fails CI here.
 """
 
 import numpy as np
@@ -21,7 +21,7 @@ VALIDATION = ROOT / "results" / "ci" / "validation"
 def _table(name: str) -> pd.DataFrame:
     path = VALIDATION / name
     if not path.exists():
-        pytest.fail(f"{path} is missing: run the small profile first (make test does), "
+        pytest.fail(f"{path} is missing: run the small profile first (make test-pipeline does), "
                     "snakemake --cores 2 --configfile config/test.yaml")
     return pd.read_csv(path).set_index("span_type") if name != "identification_check.csv" else pd.read_csv(path)
 

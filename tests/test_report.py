@@ -1,4 +1,4 @@
-"""The HTML report of the small profile (make test writes results/ci/report.html, as make run
+"""The HTML report of the small profile (make test-pipeline writes results/ci/report.html, as make run
 writes results/report.html): every figure and table of the pipeline's stages, with captions, and
 a front page that a browser renders.
 
@@ -8,7 +8,7 @@ chromium (headless), lets the app show every image through its own view
 (``app.setView({content: "img", ...})``) and reads each image's natural size after it loaded,
 waiting until each is complete: a missing or corrupt image is complete with no width (checked by
 breaking one PNG's signature: it reads 0 × 0). It also reads the rendered front page.
-Marker ``pipeline``: make test runs it after the small profile.
+Marker ``pipeline``: make test-pipeline runs it after the small profile.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ def _variable(text: str, name: str) -> dict:
 @pytest.fixture(scope="module")
 def report():
     if not REPORT.exists():
-        pytest.fail(f"{REPORT} missing: make test writes it (snakemake --report … --report-after-run)")
+        pytest.fail(f"{REPORT} missing: make test-pipeline writes it (snakemake --report … --report-after-run)")
     text = REPORT.read_text(encoding="utf-8")
     return text, _variable(text, "results"), _variable(text, "categories")
 
@@ -124,7 +124,7 @@ window.addEventListener('load', function () {
 
 
 @pytest.mark.skipif(shutil.which("chromium") is None,
-                    reason="Debian's chromium is not installed (make test installs it as root: tests/install_browser.sh)")
+                    reason="Debian's chromium is not installed (make test-pipeline installs it as root: tests/install_browser.sh)")
 def test_report_renders_in_a_browser_with_every_image(report, tmp_path):
     text, results, _ = report
     page = tmp_path / "report.html"

@@ -2,7 +2,7 @@
 # make test-cluster: the small profile's measurement pipeline through a real SLURM scheduler.
 #
 # 1. The local run of the small profile (config/test.yaml, results/ci): brought up to date here
-#    (nothing to do after `make test`).
+#    (nothing to do after `make test-pipeline`).
 # 2. A one-node SLURM cluster on loopback (Debian's packages; tests/cluster/slurm_cluster.sh).
 # 3. The same settings through `--workflow-profile workflow/profiles/slurm`, into results/cluster,
 #    on the local run's recording: ingest → projection → correction → identification, every job
