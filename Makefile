@@ -8,7 +8,8 @@ STAMP := $(VENV)/.installed
 CORES ?= 2
 SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 
-.PHONY: setup cluster-setup run own-data paper unlock test test-pipeline test-slow test-cluster docs bench bench-line validate clean
+.PHONY: setup cluster-setup run own-data paper unlock test test-pipeline test-slow test-cluster docs bench \
+	bench-line validate clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
