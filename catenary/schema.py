@@ -13,6 +13,7 @@ path) and what was expected, never a dump of the schema.
 from __future__ import annotations
 
 import numbers
+from collections.abc import Mapping
 from functools import lru_cache
 from importlib.resources import files
 from typing import Any
@@ -24,7 +25,7 @@ from jsonschema.exceptions import ValidationError
 
 from .errors import ConfigError
 
-__all__ = ["SCHEMAS", "check", "schema_path", "load_schema"]
+__all__ = ["SCHEMAS", "check", "load_schema", "merged_mapping", "schema_path"]
 
 #: Names of the shipped schemas (``catenary/schemas/<name>.schema.yaml``).
 SCHEMAS = ("config", "catenary", "campaign")
@@ -163,3 +164,17 @@ def check(instance: Any, name: str, *path: str, where: str | None = None) -> Non
         parts.append(next(k for k in error.validator_value if k not in error.instance))
     key = ".".join(parts)
     raise ConfigError(f"{key}: {_expected(error)}")
+
+
+def merged_mapping(base: Mapping, over: Mapping | None) -> dict:
+    """``base`` with ``over`` laid on it, nested mappings merged key by key (unknown keys kept,
+    so that the schema reports them): a settings block under its per-span-type overrides, or a
+    block's defaults under what the config gives. It lives here, beside :func:`check`, so that
+    the workflow merges and checks its blocks without importing the stages' packages."""
+    out = dict(base)
+    if not isinstance(over, Mapping):
+        return over if over is not None else out
+    for key, value in over.items():
+        out[key] = merged_mapping(base[key], value) if isinstance(base.get(key), Mapping) and isinstance(value, Mapping) \
+            else value
+    return out

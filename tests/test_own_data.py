@@ -8,8 +8,10 @@ every fourth span type is left blank. `config/example.yaml` runs it with the def
 start no job for N3 (a type the data do not hold) and account for every span. The test adds
 config/test.yaml's smaller designs (the small profile's) and diagnoses one step over the three
 candidates that matter on these spans, and leaves out the correction's model-error budget
-(make test-pipeline's small profile runs it), so that it costs ≈ 55–75 s; the whole diagnosis of the
-example (9 candidates, 3 steps) names nothing for sure: it finds the spans' smooth shapes
+(make test-pipeline's small profile runs it) and the profile intervals (16 of the
+identification's 20 s; tests/test_identification_profile.py and the small profile check them),
+so that it costs ≈ 40 s; the whole diagnosis of the example (9 candidates, 3 steps) names
+nothing for sure: it finds the spans' smooth shapes
 ambiguous between a T_MW spread and a ΔH–dropper correlation (adjusted p 5·10⁻⁷), which is
 what a half-sine of σ 4 mm per span looks like to both.
 It needs nothing but the repository, so make test runs it: the workflow end to end through the
@@ -31,7 +33,8 @@ def test_shipped_example_runs_the_measurement_pipeline_for_its_span_type(tmp_pat
                                                                           f"results: {results}")
                    + "diagnosis:\n  max_steps: 1\n  bootstrap_replicates: 200\n  candidates: [messenger_tension_variability, "
                      "system_height_dropper_correlation, dropper_creep]\n"
-                   + "model_error:\n  enabled: false\n")
+                   + "model_error:\n  enabled: false\n"
+                   + "identification:\n  profile_intervals:\n    parameters: []\n")
     snakemake = ROOT / ".venv" / "bin" / "snakemake"
     run = subprocess.run([str(snakemake) if snakemake.exists() else "snakemake",
                           "--workflow-profile", "workflow/profiles/default", "--cores", "2",

@@ -10,8 +10,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..identification.settings import merged_mapping
-from ..schema import check
+from ..schema import check, merged_mapping
 from ..truth import Law
 
 __all__ = ["ContactForceSettings", "Limits", "ToleranceStudy", "batch_replicates", "n_batches", "sobol_size",

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..errors import ConfigError
-from ..identification.settings import IdentificationSettings, merged_mapping
-from ..schema import check
+from ..identification.settings import IdentificationSettings
+from ..schema import check, merged_mapping
 from .candidates import CANDIDATES
 
 __all__ = ["DiagnosisSettings"]

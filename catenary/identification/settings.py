@@ -29,27 +29,15 @@ import numpy as np
 from ..config import Catenary, SpanType
 from ..dropper_table import nominal_dropper_lengths
 from ..errors import ConfigError
-from ..schema import check
+from ..schema import check, merged_mapping
 from .design import MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, dropper_names
 
-__all__ = ["DETERMINISTIC_CV", "DROPPER_GROUP", "IdentificationSettings", "merged_mapping"]
+__all__ = ["DETERMINISTIC_CV", "DROPPER_GROUP", "IdentificationSettings"]
 
 #: Group name standing for every dropper length in ``random_inputs`` and ``free_means``.
 DROPPER_GROUP = "dropper_lengths_m"
 #: σ/μ given to a deterministic (non-random) input.
 DETERMINISTIC_CV = 1e-9
-
-
-def merged_mapping(base: Mapping, over: Mapping | None) -> dict:
-    """``base`` with ``over`` laid on it, nested mappings merged key by key (unknown keys kept,
-    so that the schema reports them)."""
-    out = dict(base)
-    if not isinstance(over, Mapping):
-        return over if over is not None else out
-    for key, value in over.items():
-        out[key] = merged_mapping(base[key], value) if isinstance(base.get(key), Mapping) and isinstance(value, Mapping) \
-            else value
-    return out
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@ import os
 
 import yaml
 
-from catenary.schema import check as check_schema
+from catenary.schema import check as check_schema, merged_mapping
 
 RESULTS = config["results"]
 SPAN_TYPES = config["span_types"]
@@ -31,7 +31,6 @@ def _per_span_type_settings():
     """{block: {span type: settings}} for the blocks that `per_span_type` may override; each
     merged block is checked against the same schema as the global one."""
     from catenary.errors import ConfigError
-    from catenary.identification.settings import merged_mapping
 
     overrides = config.get("per_span_type") or {}
     unknown = sorted(set(overrides) - set(SPAN_TYPES))
