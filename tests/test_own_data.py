@@ -21,7 +21,6 @@ rules, from a recording the campaign code did not write.
 import subprocess
 
 import pandas as pd
-import pytest
 
 from .conftest import ROOT, workflow_dir
 
