@@ -175,6 +175,6 @@ def merged_mapping(base: Mapping, over: Mapping | None) -> dict:
     if not isinstance(over, Mapping):
         return over if over is not None else out
     for key, value in over.items():
-        out[key] = merged_mapping(base[key], value) if isinstance(base.get(key), Mapping) and isinstance(value, Mapping) \
-            else value
+        nested = isinstance(base.get(key), Mapping) and isinstance(value, Mapping)
+        out[key] = merged_mapping(base[key], value) if nested else value
     return out
