@@ -112,6 +112,7 @@ def main() -> None:
         run([sys.executable, "benchmarks/model_form_check.py"])
         run([sys.executable, "benchmarks/validation_table.py"])
     rows = []
+    out = None
     for name in (n for n in names if n not in RECORDING and n not in MAINTENANCE):
         folder = ROOT / ("results" if name == "default" else f"results/validate/{name}")
         rows.append(pd.read_csv(folder / "validation" / "diagnosis_check.csv"))
@@ -128,7 +129,7 @@ def main() -> None:
         times["validate_replicates_s"] = time.perf_counter() - start
         times["validate_wall_time_s"] = time.perf_counter() - t0
     record(times)
-    print(f"written {out}; {time.perf_counter() - t0:.0f} s")
+    print(f"written {out}; " if out else "", f"{time.perf_counter() - t0:.0f} s", sep="")
     sys.exit(returncode)
 
 
