@@ -26,8 +26,8 @@ from .sensitivity import sobol_seeds
 from .laws import SectionLaws
 from .settings import ContactForceSettings, Limits, tolerance_replicates
 
-__all__ = ["CRITERIA", "FEATURES", "VIOLATIONS", "run_batch", "run_case_batch", "run_section", "run_sobol_batch", "section_state",
-           "static_features", "violations"]
+__all__ = ["CRITERIA", "FEATURES", "VIOLATIONS", "run_batch", "run_case_batch", "run_section", "run_sobol_batch",
+           "section_state", "static_features", "violations"]
 
 #: Criteria of a run (EN 50318 / EN 50367), in the units of their names.
 CRITERIA = ("mean_force_n", "std_force_n", "statistical_max_n", "statistical_min_n", "max_force_n", "min_force_n",
