@@ -8,8 +8,8 @@ STAMP := $(VENV)/.installed
 CORES ?= 2
 SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 
-.PHONY: setup cluster-setup run own-data paper unlock test test-pipeline test-slow test-cluster docs bench \
-	bench-line validate clean
+.PHONY: setup cluster-setup run own-data paper unlock default-data test test-pipeline test-slow test-cluster docs \
+	bench bench-line validate clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -22,6 +22,15 @@ setup: $(STAMP)
 # Ends with the HTML report (every figure and table, with captions): results/report.html.
 run: setup
 	$(SMK) --cores $(CORES) --configfile config/config.yaml --report results/report.html --report-after-run
+
+# Rewrite data/default_campaign, the default campaign that make run copies instead of simulating
+# while it was written from these very config/campaign.yaml, catenary.yaml and pantographs.yaml
+# (catenary.shipped): after changing one of them or the code that moves the campaign.
+default-data: setup
+	$(SMK) --cores $(CORES) --configfile config/config.yaml --config campaign_copy= results=results/default_data \
+	  -- results/default_data/campaign/recording.parquet
+	$(BIN)/python -m catenary.shipped results/default_data/campaign data/default_campaign \
+	  config/campaign.yaml config/catenary.yaml config/pantographs.yaml
 
 # Your recording only (ingest → … → identification → diagnosis): make own-data OWN=config/my_line.yaml
 OWN ?= config/own_data.yaml

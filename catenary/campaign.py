@@ -243,3 +243,10 @@ def truth_schema(columns) -> pa.Schema:
     text = {"span_id", "section_id", "span_type", "run_id"}
     return pa.schema([pa.field(c, pa.string() if c in text else pa.int64() if c == "direction" else pa.float64(),
                                nullable=False) for c in columns])
+
+
+def write_recording_csv(recording: pd.DataFrame, path) -> None:
+    """The recording as CSV (4 decimals: 0.1 mm), beside its Parquet file, for those who read
+    CSV; the stagger column only when the car recorded it."""
+    columns = [c for c in recording.columns if c != "stagger_m" or recording["stagger_m"].notna().any()]
+    recording[columns].to_csv(path, index=False, float_format="%.4f")

@@ -2,7 +2,7 @@
 
 import pandas as pd
 
-from catenary.campaign import campaign_masts, gather_recording, truth_schema
+from catenary.campaign import campaign_masts, gather_recording, truth_schema, write_recording_csv
 from catenary.config import load_catenary
 from catenary.logs import rule_logger
 from catenary.parquet import config_hash, read_table, write_table
@@ -17,8 +17,7 @@ recording = gather_recording([read_table(p) for p in snakemake.input.recordings]
 truth = pd.concat([read_table(p) for p in snakemake.input.truths], ignore_index=True)
 truth_runs = pd.concat([read_table(p) for p in snakemake.input.truth_runs], ignore_index=True)
 write_table(recording, snakemake.output.recording, RECORDING_SCHEMA, config_hash=digest, kind="recording")
-columns = [c for c in recording.columns if c != "stagger_m" or recording["stagger_m"].notna().any()]
-recording[columns].to_csv(snakemake.output.recording_csv, index=False, float_format="%.4f")
+write_recording_csv(recording, snakemake.output.recording_csv)
 masts, masts_truth = campaign_masts(draw_line(spec, catenary), spec)
 masts.to_csv(snakemake.output.masts, index=False, float_format="%.4f")
 masts_truth.to_csv(snakemake.output.masts_truth, index=False, float_format="%.4f")

@@ -3,12 +3,20 @@ import os
 import yaml
 
 from catenary.schema import check as check_schema, merged_mapping
+from catenary.shipped import FILES as SHIPPED_FILES, MANIFEST as SHIPPED_MANIFEST, SOURCES as SHIPPED_SOURCES
+from catenary.shipped import matches as shipped_campaign_matches
 
 RESULTS = config["results"]
 SPAN_TYPES = config["span_types"]
 RECORDING_FILES = config["recording"] if isinstance(config["recording"], list) else [config["recording"]]
 # A run on the virtual campaign's own recording: the validation rules compare with its truth.
 CAMPAIGN_RUN = any(str(path).startswith(f"{RESULTS}/campaign/") for path in RECORDING_FILES)
+# The campaign's outputs shipped for these very files (data/default_campaign for make run) are
+# copied, not simulated, while the copy's manifest matches them (catenary.shipped).
+CAMPAIGN_COPY = config.get("campaign_copy")
+CAMPAIGN_COPIED, CAMPAIGN_COPY_WHY = shipped_campaign_matches(
+    CAMPAIGN_COPY, {key: config[key] for key in SHIPPED_SOURCES}
+)
 
 
 def _load_catenary_config():

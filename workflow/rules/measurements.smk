@@ -1,47 +1,79 @@
-rule campaign_section:
-    """Simulate the recording car over one section of the campaign's truth."""
-    input:
-        campaign=config["campaign"],
-        catenary=config["catenary"],
-        pantographs=config["pantographs"],
-    output:
-        recording=f"{RESULTS}/campaign/sections/{{section}}_recording.parquet",
-        truth=f"{RESULTS}/campaign/sections/{{section}}_truth.parquet",
-        truth_runs=f"{RESULTS}/campaign/sections/{{section}}_truth_runs.parquet",
-    log:
-        f"{RESULTS}/logs/campaign_section/{{section}}.log",
-    benchmark:
-        f"{RESULTS}/benchmarks/campaign_section/{{section}}.tsv",
-    conda:
-        "../envs/catenary.yaml"
-    script:
-        "../../scripts/campaign_section.py"
+if CAMPAIGN_COPIED:
+
+    rule campaign_copy:
+        """The campaign's outputs from the copy shipped for these very campaign, catenary and
+        pantographs files (its manifest checked when the DAG is built, each file's SHA-256 here):
+        the simulation's files without simulating (catenary.shipped)."""
+        input:
+            files=[os.path.join(CAMPAIGN_COPY, name) for name in (SHIPPED_MANIFEST, *SHIPPED_FILES)],
+            campaign=config["campaign"],
+            catenary=config["catenary"],
+            pantographs=config["pantographs"],
+        output:
+            recording=f"{RESULTS}/campaign/recording.parquet",
+            recording_csv=f"{RESULTS}/campaign/recording.csv",
+            masts=f"{RESULTS}/campaign/masts.csv",
+            masts_truth=f"{RESULTS}/campaign/masts_truth.csv",
+            truth=f"{RESULTS}/campaign/truth.parquet",
+            truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
+        params:
+            folder=lambda wildcards, input: os.path.dirname(input.files[0]),
+            why=CAMPAIGN_COPY_WHY,
+        log:
+            f"{RESULTS}/logs/campaign.log",
+        benchmark:
+            f"{RESULTS}/benchmarks/campaign.tsv",
+        conda:
+            "../envs/catenary.yaml"
+        script:
+            "../../scripts/campaign_copy.py"
+
+else:
+
+    rule campaign_section:
+        """Simulate the recording car over one section of the campaign's truth."""
+        input:
+            campaign=config["campaign"],
+            catenary=config["catenary"],
+            pantographs=config["pantographs"],
+        output:
+            recording=f"{RESULTS}/campaign/sections/{{section}}_recording.parquet",
+            truth=f"{RESULTS}/campaign/sections/{{section}}_truth.parquet",
+            truth_runs=f"{RESULTS}/campaign/sections/{{section}}_truth_runs.parquet",
+        log:
+            f"{RESULTS}/logs/campaign_section/{{section}}.log",
+        benchmark:
+            f"{RESULTS}/benchmarks/campaign_section/{{section}}.tsv",
+        conda:
+            "../envs/catenary.yaml"
+        script:
+            "../../scripts/campaign_section.py"
 
 
-rule campaign:
-    """Gather the sections: recording (Parquet and CSV; every run), masts (the table as given to
-    the car, with its planted errors) and, apart, the truth (per span, per span and run, per mast)."""
-    input:
-        campaign=config["campaign"],
-        catenary=config["catenary"],
-        recordings=expand(f"{RESULTS}/campaign/sections/{{section}}_recording.parquet", section=CAMPAIGN_SECTIONS),
-        truths=expand(f"{RESULTS}/campaign/sections/{{section}}_truth.parquet", section=CAMPAIGN_SECTIONS),
-        truth_runs=expand(f"{RESULTS}/campaign/sections/{{section}}_truth_runs.parquet", section=CAMPAIGN_SECTIONS),
-    output:
-        recording=f"{RESULTS}/campaign/recording.parquet",
-        recording_csv=f"{RESULTS}/campaign/recording.csv",
-        masts=f"{RESULTS}/campaign/masts.csv",
-        masts_truth=f"{RESULTS}/campaign/masts_truth.csv",
-        truth=f"{RESULTS}/campaign/truth.parquet",
-        truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
-    log:
-        f"{RESULTS}/logs/campaign.log",
-    benchmark:
-        f"{RESULTS}/benchmarks/campaign.tsv",
-    conda:
-        "../envs/catenary.yaml"
-    script:
-        "../../scripts/campaign.py"
+    rule campaign:
+        """Gather the sections: recording (Parquet and CSV; every run), masts (the table as given to
+        the car, with its planted errors) and, apart, the truth (per span, per span and run, per mast)."""
+        input:
+            campaign=config["campaign"],
+            catenary=config["catenary"],
+            recordings=expand(f"{RESULTS}/campaign/sections/{{section}}_recording.parquet", section=CAMPAIGN_SECTIONS),
+            truths=expand(f"{RESULTS}/campaign/sections/{{section}}_truth.parquet", section=CAMPAIGN_SECTIONS),
+            truth_runs=expand(f"{RESULTS}/campaign/sections/{{section}}_truth_runs.parquet", section=CAMPAIGN_SECTIONS),
+        output:
+            recording=f"{RESULTS}/campaign/recording.parquet",
+            recording_csv=f"{RESULTS}/campaign/recording.csv",
+            masts=f"{RESULTS}/campaign/masts.csv",
+            masts_truth=f"{RESULTS}/campaign/masts_truth.csv",
+            truth=f"{RESULTS}/campaign/truth.parquet",
+            truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
+        log:
+            f"{RESULTS}/logs/campaign.log",
+        benchmark:
+            f"{RESULTS}/benchmarks/campaign.tsv",
+        conda:
+            "../envs/catenary.yaml"
+        script:
+            "../../scripts/campaign.py"
 
 
 rule ingest:

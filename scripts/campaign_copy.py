@@ -1,0 +1,16 @@
+"""Rule campaign_copy: the campaign's outputs from the copy shipped for these very files
+(catenary.shipped), in place of simulating them."""
+
+from pathlib import Path
+
+from catenary.campaign import write_recording_csv
+from catenary.logs import rule_logger
+from catenary.parquet import read_table
+from catenary.shipped import copy_out
+
+log = rule_logger("campaign_copy", snakemake.log[0])
+copy_out(snakemake.params.folder, Path(snakemake.output.recording).parent)
+recording = read_table(snakemake.output.recording)
+write_recording_csv(recording, snakemake.output.recording_csv)
+log.info("campaign: copied from %s (%s), not simulated: %d samples in %d run(s)", snakemake.params.folder,
+         snakemake.params.why, len(recording), recording["run_id"].nunique())
