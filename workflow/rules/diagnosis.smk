@@ -25,6 +25,10 @@ rule diagnose:
         correction=config["correction"],
         model_error_enabled=config.get("model_error", {}).get("enabled", False),
     threads: 2
+    # The longest chain after the correction (diagnosis ≈ 180 s, then the contact-force batches
+    # that draw what it named): started before the identifications and the maintenance, which fill
+    # the cores after it, not left to end the run alone (make run 2026-11-26 19:18: 40 s of tail).
+    priority: 1
     log:
         f"{RESULTS}/logs/diagnose/{{span_type}}.log",
     benchmark:
