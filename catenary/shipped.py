@@ -42,8 +42,16 @@ def file_digest(path: str | Path) -> str:
 
 
 def _manifest(directory: Path) -> dict:
-    with open(directory / MANIFEST, encoding="utf-8") as f:
-        return json.load(f)
+    path = directory / MANIFEST
+    try:
+        with open(path, encoding="utf-8") as f:
+            manifest = json.load(f)
+    except json.JSONDecodeError as error:
+        raise InputError(f"{path}: not a manifest (JSON: {error}); restore it from the repository (git checkout) "
+                         "or rewrite the copy (make default-data)") from None
+    if not isinstance(manifest, dict):
+        raise InputError(f"{path}: expected a JSON object with 'sources' and 'files'")
+    return manifest
 
 
 def matches(directory: str | Path | None, sources: dict[str, str]) -> tuple[bool, str]:
@@ -60,6 +68,11 @@ def matches(directory: str | Path | None, sources: dict[str, str]) -> tuple[bool
     -------
     (bool, str)
         Whether the copy can stand for the simulation, and why (a sentence for the log).
+
+    Raises
+    ------
+    InputError
+        The copy's manifest is not a JSON object (cut short, edited by hand).
     """
     if directory is None:
         return False, "no campaign_copy configured: the campaign is simulated"
