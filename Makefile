@@ -11,10 +11,22 @@ SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 .PHONY: setup cluster-setup run own-data paper unlock default-data test test-pipeline test-slow test-cluster docs \
 	bench bench-line validate clean
 
+# Packages go in through uv, pinned, where it installs: it fetches, links and byte-compiles wheels
+# in parallel (the venv's packages in 12 s, against pip's 36 s: measured 2026-11-26). Compiled as
+# pip does, or where PYTHONDONTWRITEBYTECODE is set every job compiles every module it imports
+# (make run 609 s against 558 s without --compile-bytecode). Where uv cannot install (no uv wheel
+# for the platform, no registry for it), pip.
+UV_VERSION := 0.13.9
+define install
+	( $(BIN)/python -m pip install --quiet --disable-pip-version-check uv==$(UV_VERSION) 2>/dev/null \
+	  && $(BIN)/uv pip install --quiet --compile-bytecode --python $(BIN)/python $(1) ) \
+	|| ( echo "uv could not install; pip instead" && $(BIN)/python -m pip install --quiet --upgrade pip \
+	  && $(BIN)/python -m pip install --quiet $(1) )
+endef
+
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(call install,-e '.[test]')
 	touch $(STAMP)
 
 setup: $(STAMP)
@@ -78,7 +90,7 @@ test-cluster: cluster-setup
 # run side by side, so that no install rewrites the venv under a running test).
 CLUSTER_STAMP := $(VENV)/.cluster-installed
 $(CLUSTER_STAMP): $(STAMP)
-	$(BIN)/python -m pip install --quiet -e '.[test,cluster]'
+	$(call install,-e '.[test,cluster]')
 	touch $(CLUSTER_STAMP)
 
 cluster-setup: $(CLUSTER_STAMP)
@@ -86,7 +98,7 @@ cluster-setup: $(CLUSTER_STAMP)
 # The documentation site from docs/ (API reference from the docstrings) into site/, strict: a broken
 # link, a page missing from the navigation or a docstring the reference cannot read fails it.
 docs: setup
-	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	$(call install,-e '.[docs]')
 	$(BIN)/mkdocs build --strict
 
 bench: setup
