@@ -17,6 +17,7 @@ SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 # (make run 609 s against 558 s without --compile-bytecode). Where uv cannot install (no uv wheel
 # for the platform, no registry for it), pip.
 UV_VERSION := 0.13.9
+COMMA := ,
 define install
 	( $(BIN)/python -m pip install --quiet --disable-pip-version-check uv==$(UV_VERSION) 2>/dev/null \
 	  && $(BIN)/uv pip install --quiet --compile-bytecode --python $(BIN)/python $(1) ) \
@@ -90,7 +91,7 @@ test-cluster: cluster-setup
 # run side by side, so that no install rewrites the venv under a running test).
 CLUSTER_STAMP := $(VENV)/.cluster-installed
 $(CLUSTER_STAMP): $(STAMP)
-	$(call install,-e '.[test,cluster]')
+	$(call install,-e '.[test$(COMMA)cluster]')
 	touch $(CLUSTER_STAMP)
 
 cluster-setup: $(CLUSTER_STAMP)
