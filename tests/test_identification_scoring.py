@@ -56,10 +56,12 @@ def test_the_trust_radius_reaches_a_maximum_many_caps_away_in_few_iterations(far
     assert r.j >= problem.evaluate(theta_hat).j - 1e-3
 
 
-def test_a_step_that_leaves_the_models_domain_is_shortened_not_damped(far_maximum):
+def test_a_scoring_whose_steps_leave_the_models_domain_climbs_to_its_edge_inside_it(far_maximum):
     # Beyond θ₁ = 7.5 the model has no law (as T_CW spreads beyond the built tension range: J
-    # not finite). The maximum over the domain is on its edge; the scoring must still climb to
-    # it — a trial out of the domain divides the radius by 4 — and never report a point outside.
+    # not finite). The maximum over the domain is on its edge; once the growing radius carries
+    # a trial beyond it (a trial out of the domain divides the radius by 4), the scoring must
+    # still climb towards the edge and never report a point outside. (A fixed cap of 1, which
+    # never overshoots here, passes too: this guards the radius, it does not tell it apart.)
     problem, theta_hat = far_maximum
     inner = problem.evaluate
 

@@ -24,10 +24,10 @@ by it and gained more than ¾ of what the quadratic model predicted, halves (dow
 after one that gained less than ¼, and shrinks by 4 where a trial step leaves the model's
 domain (J not finite: a T_CW spread beyond the tensions the model was built for), where more
 damping would not shorten a move held at its cap. On the default campaign (2026-11-26) the
-doubling let the CW wear's refit walk its parameters 8 and 16 caps from the null: N2's refit
-was certified after 10 iterations (277 evaluations, J 0.03 above Nelder–Mead's after 1 973),
-where the fixed cap crawled and handed over. Where r was never cut, the iterations are those
-of a fixed cap.
+doubling let the CW wear's refit walk its mean fraction 8 caps from the null, to its bound, and
+its spread's variance 4 caps: N2's refit was certified after 10 iterations (277 evaluations, J
+0.03 above Nelder–Mead's after 1 973), where the fixed cap crawled and handed over. Where r
+stays 1, the iterations are those of the fixed cap.
 
 Where the model fits the data the scoring step is nearly Newton's and converges in a few
 iterations: on the default campaign's N2 (117 spans, N = 10⁴) the named T_MW spread's refit
