@@ -3,6 +3,11 @@
 Used to carry the tension dependence of the condensed static operator: the exact
 operator is computed at Chebyshev nodes and interpolated between them, which converges
 spectrally for the smooth (analytic) dependence on tension.
+
+:class:`StackedMap` applies an interpolated matrix to one vector per sample, ``M(p_i) @ x_i``
+for 10⁴ samples at once: one GEMM with every coefficient matrix side by side, then each
+sample's sum over the basis (a compiled loop). Several maps evaluated at the same points share
+their one-dimensional bases through a :class:`BasisCache`.
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ from itertools import product
 from typing import Callable
 
 import numpy as np
+from numba import njit
 
 
 @dataclass(frozen=True)
@@ -33,23 +39,54 @@ class ChebyshevInterpolant:
     degrees: tuple[int, ...]
     coefficients: np.ndarray
 
-    def basis(self, points: np.ndarray) -> np.ndarray:
-        """Tensor Chebyshev basis at ``points`` (N, d), shape (N, Π(degree + 1))."""
-        points = np.atleast_2d(points)
-        out = np.ones((points.shape[0], 1))
+    def basis(self, points: np.ndarray, cache: "BasisCache | None" = None) -> np.ndarray:
+        """Tensor Chebyshev basis at ``points`` (N, d), shape (N, Π(degree + 1)).
+
+        ``cache`` (built on the same ``points``) lends one-dimensional bases already computed
+        for another interpolant on the same interval."""
+        return self.basis_rows(points, cache).T
+
+    def basis_rows(self, points: np.ndarray, cache: "BasisCache | None" = None) -> np.ndarray:
+        """The same basis, one row per basis function: shape (Π(degree + 1), N)."""
+        cache = BasisCache(points) if cache is None else cache
+        out = None
         for dim, deg in enumerate(self.degrees):
-            t = _to_unit(points[:, dim], self.lower[dim], self.upper[dim])
-            b = chebyshev_basis(t, deg)
-            out = (out[:, :, None] * b[:, None, :]).reshape(points.shape[0], -1)
-        return out
+            if deg == 0:                 # a constant dimension: a factor 1
+                continue
+            b = cache.rows(dim, self.lower[dim], self.upper[dim], deg)
+            out = b if out is None else (out[:, None, :] * b[None, :, :]).reshape(-1, b.shape[1])
+        return np.ones((1, cache.points.shape[0])) if out is None else out
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """Interpolated values at ``points`` (N, d), shape (N, m)."""
         return self.basis(points) @ self.coefficients
 
 
+class BasisCache:
+    """One-dimensional Chebyshev bases of one set of points (N, d), computed once per dimension
+    and interval at the largest degree asked and lent, truncated, to lower degrees (T_0…T_k are
+    the first rows of T_0…T_K)."""
+
+    def __init__(self, points: np.ndarray):
+        self.points = np.atleast_2d(points)
+        self._rows: dict = {}
+
+    def rows(self, dim: int, lower: float, upper: float, degree: int) -> np.ndarray:
+        """T_0…T_degree along dimension ``dim`` mapped from [lower, upper], shape (degree + 1, N)."""
+        key = (dim, float(lower), float(upper))
+        have = self._rows.get(key)
+        if have is None or have.shape[0] <= degree:
+            have = _chebyshev_rows(_to_unit(self.points[:, dim], lower, upper), degree)
+            self._rows[key] = have
+        return have[:degree + 1]
+
+
 def chebyshev_basis(t: np.ndarray, degree: int) -> np.ndarray:
     """Chebyshev polynomials T_0..T_degree at ``t`` ∈ [−1, 1], shape (N, degree + 1)."""
+    return _chebyshev_rows(t, degree).T
+
+
+def _chebyshev_rows(t: np.ndarray, degree: int) -> np.ndarray:
     t = np.asarray(t, dtype=float).ravel()
     # One contiguous row per degree (4× faster than writing strided columns at N = 10⁴), the
     # same arithmetic: T_j = 2 t T_(j−1) − T_(j−2).
@@ -61,7 +98,7 @@ def chebyshev_basis(t: np.ndarray, degree: int) -> np.ndarray:
         np.multiply(t, b[j - 1], out=b[j])
         b[j] *= 2.0
         b[j] -= b[j - 2]
-    return b.T
+    return b
 
 
 def fit_chebyshev(fun: Callable[[np.ndarray], np.ndarray], lower, upper, degrees) -> ChebyshevInterpolant:
@@ -94,3 +131,55 @@ def _to_unit(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
 
 def _from_unit(t: float, lo: float, hi: float) -> float:
     return 0.5 * (lo + hi) + 0.5 * (hi - lo) * t
+
+
+#: Size of the intermediate of one block of :class:`StackedMap` [bytes].
+_BLOCK_BYTES = 2 ** 19
+
+
+class StackedMap:
+    """A matrix map ``x ↦ M(p) @ x``, M (n_out × n_in) interpolated in Chebyshev form.
+
+    The coefficient matrices ``M_k`` are stacked side by side so that one GEMM applies all of
+    them to a block of samples, ``Y = X [M_0ᵀ … M_(K−1)ᵀ]``; each sample's row of Y is then
+    summed over the basis, ``Σ_k T_k(p_i) Y_ik``, by a compiled loop (:func:`_sum_over_basis`).
+    That sum was NumPy's batched matmul of one (1 × K) by one (K × n_out) matrix per sample,
+    as long as the GEMM itself; the loop takes a third of it (measured at N = 10⁴, one BLAS
+    thread: the force map of a span 2.3 → 1.6 ms, the compliance map 0.63 → 0.48 ms).
+    """
+
+    def __init__(self, interpolant: ChebyshevInterpolant, n_out: int, n_in: int):
+        k = interpolant.coefficients.shape[0]
+        self.interpolant = interpolant
+        self.n_basis = k
+        self.n_out = n_out
+        self.stacked = interpolant.coefficients.reshape(k, n_out, n_in).transpose(2, 0, 1).reshape(n_in, k * n_out)
+
+    def __call__(self, points: np.ndarray, x: np.ndarray, cache: BasisCache | None = None) -> np.ndarray:
+        """``M(points_i) @ x_i`` for every row i, shape (N, n_out); ``cache`` as in
+        :meth:`ChebyshevInterpolant.basis`."""
+        if self.n_basis == 1:
+            return x @ self.stacked
+        basis = self.interpolant.basis_rows(points, cache)
+        out = np.empty((x.shape[0], self.n_out))
+        # Blocks of rows whose intermediate (rows × basis × outputs) stays in a core's cache:
+        # measured 1.4× faster than one pass over 10⁴ samples, whose intermediate is 11 MB.
+        rows = max(64, _BLOCK_BYTES // (8 * self.stacked.shape[1]))
+        for start in range(0, x.shape[0], rows):
+            block = slice(start, start + rows)
+            _sum_over_basis(x[block] @ self.stacked, basis[:, block], out[block])
+        return out
+
+
+@njit(cache=True)
+def _sum_over_basis(y, basis, out):       # pragma: no cover - compiled; tested through StackedMap
+    """``out[i, o] = Σ_k basis[k, i] y[i, k n_out + o]`` (the basis sum of :class:`StackedMap`)."""
+    n_out = out.shape[1]
+    for i in range(y.shape[0]):
+        for o in range(n_out):
+            out[i, o] = 0.0
+        for k in range(basis.shape[0]):
+            b = basis[k, i]
+            base = k * n_out
+            for o in range(n_out):
+                out[i, o] += b * y[i, base + o]

@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse.linalg import splu
 
-from .chebyshev import ChebyshevInterpolant, fit_chebyshev
+from .chebyshev import BasisCache, StackedMap, fit_chebyshev
 from .config import Catenary, SpanType
 from .dropper_table import nominal_dropper_lengths
 from .errors import OutOfModelRangeError
@@ -59,6 +59,14 @@ from .static import CW, DOFS_PER_NODE, StaticModel, wire_height_at, wire_weight_
 
 #: Loads of the condensation beyond the base ones (:class:`CondensedSpan`), in column order.
 EXTRA_COLUMNS = ("cw_weight", "raise_left", "raise_right")
+
+#: Chebyshev degree in 1/T_MW of the models that sample the identified laws (identification,
+#: diagnosis, maintenance). Over the widest T_MW range they serve (8.5–37.5 kN, the
+#: identification box's quantiles for N2 and N3) degree 10 is within 5e-8 m of exact for taut
+#: samples (measured against degree 24: degree 8 1e-6 m, 12 2e-9 m, 14 1e-10 m), four orders
+#: below the corrected W's 0.6 mm error, and its maps cost 11 % (17 % with a CW clamp offset)
+#: less than degree 14's, which they used until 2026-11-27.
+SAMPLING_DEGREE = 10
 
 
 @dataclass(frozen=True)
@@ -357,9 +365,9 @@ class FastSpanModel:
         # FE model within 1e-9 m (degree 4: 6e-9 m) over 15–26 kN, at half the cost of degree 14.
         self._w_degrees = (min(degree, 6), cw_degree, offset_degree)
         deflection = fit_chebyshev(deflection_map, *self._w_box, self._w_degrees)
-        self._force = _StackedMap(force, n, n + 3 + n_extra)
-        self._compliance = _StackedMap(compliance, n, n)
-        self._deflection = _StackedMap(deflection, n, 2 * n + 3 + n_extra)
+        self._force = StackedMap(force, n, n + 3 + n_extra)
+        self._compliance = StackedMap(compliance, n, n)
+        self._deflection = StackedMap(deflection, n, 2 * n + 3 + n_extra)
 
     @property
     def variable_offset(self) -> bool:
@@ -462,7 +470,7 @@ class FastSpanModel:
             return self._condensed(point, profile_x_m=x).profile.ravel()
 
         interpolant = fit_chebyshev(profile, *self._w_box, self._w_degrees)
-        return ProfileMap(x_m=x, operator=_StackedMap(interpolant, x.size, 2 * self.n_droppers + 3))
+        return ProfileMap(x_m=x, operator=StackedMap(interpolant, x.size, 2 * self.n_droppers + 3))
 
     def _evaluate_chunk(self, lengths, t_mw, dh_l, dh_r, t_cw, delta, loads, solve_slack=False):
         ones = np.ones((lengths.shape[0], 1))
@@ -473,12 +481,13 @@ class FastSpanModel:
             compliance_length = self._ea / stiffness
         else:
             rest = compliance_length = lengths
-        f0 = self._force(points, np.column_stack([rest, dh_l, dh_r, ones, loads]))
+        cache = BasisCache(points)          # the three maps share their bases in 1/T_MW, 1/T_CW, δ
+        f0 = self._force(points, np.column_stack([rest, dh_l, dh_r, ones, loads]), cache)
         # One fixed-point step for the dropper compliance deviation from the reference lengths.
-        f = f0 - self._compliance(points, (compliance_length - self.reference_lengths_m) / self._ea * f0)
+        f = f0 - self._compliance(points, (compliance_length - self.reference_lengths_m) / self._ea * f0, cache)
         if solve_slack:
             f = self._slack_forces(points, f)
-        w = self._deflection(points, np.column_stack([f, lengths, dh_l, dh_r, ones, loads]))
+        w = self._deflection(points, np.column_stack([f, lengths, dh_l, dh_r, ones, loads]), cache)
         return f, w
 
     def _slack_forces(self, points: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -512,7 +521,7 @@ class ProfileMap:
     """CW deflection from the chord along a span (:meth:`FastSpanModel.profile_map`)."""
 
     x_m: np.ndarray
-    operator: "_StackedMap"
+    operator: StackedMap
 
     def deflection(self, result: FastResult, dropper_lengths_m: np.ndarray, messenger_tension_n: np.ndarray,
                    system_height_left_m: np.ndarray, system_height_right_m: np.ndarray,
@@ -526,36 +535,3 @@ class ProfileMap:
         points = np.column_stack([1.0 / t_mw, 1.0 / t_cw, np.zeros(n_samples)])
         x = np.column_stack([result.dropper_force_n, lengths, dh_l, dh_r, np.ones(n_samples)])
         return self.operator(points, x)
-
-
-#: Size of the intermediate of one block of :class:`_StackedMap` [bytes].
-_BLOCK_BYTES = 2 ** 19
-
-
-class _StackedMap:
-    """A tension-dependent matrix map ``x ↦ M(p) @ x`` with M interpolated in Chebyshev form.
-
-    The coefficient matrices ``M_k`` are stacked side by side so that one GEMM applies all of
-    them to a block of samples, followed by a batched contraction with the basis values.
-    """
-
-    def __init__(self, interpolant: ChebyshevInterpolant, n_out: int, n_in: int):
-        k = interpolant.coefficients.shape[0]
-        self.basis = interpolant.basis
-        self.n_basis = k
-        self.stacked = interpolant.coefficients.reshape(k, n_out, n_in).transpose(2, 0, 1).reshape(n_in, k * n_out)
-
-    def __call__(self, points: np.ndarray, x: np.ndarray) -> np.ndarray:
-        if self.n_basis == 1:
-            return x @ self.stacked
-        basis = self.basis(points)
-        n_out = self.stacked.shape[1] // self.n_basis
-        out = np.empty((x.shape[0], n_out))
-        # Blocks of rows whose intermediate (rows × basis × outputs) stays in a core's cache:
-        # measured 1.4× faster than one pass over 10⁴ samples, whose intermediate is 11 MB.
-        rows = max(64, _BLOCK_BYTES // (8 * self.stacked.shape[1]))
-        for start in range(0, x.shape[0], rows):
-            block = slice(start, start + rows)
-            y = (x[block] @ self.stacked).reshape(-1, self.n_basis, n_out)
-            out[block] = (basis[block, None, :] @ y)[:, 0, :]
-        return out

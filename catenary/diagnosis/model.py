@@ -26,7 +26,7 @@ import numpy as np
 from ..config import Catenary, SpanType
 from ..effects import EFFECTS, SpanParameters
 from ..errors import OutOfModelRangeError
-from ..fast import FastSpanModel
+from ..fast import SAMPLING_DEGREE, FastSpanModel
 from ..identification.design import map_inputs
 from .candidates import CANDIDATES
 
@@ -89,7 +89,7 @@ class ModelSet:
     catenary: Catenary
     messenger_tension_bounds_n: tuple[float, float]
     neighbours: int
-    degree: int = 14
+    degree: int = SAMPLING_DEGREE
     force_influence_m_n: np.ndarray | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 

@@ -17,7 +17,7 @@ import pandas as pd
 from ..config import Catenary, SpanType
 from ..dropper_table import nominal_dropper_lengths
 from ..errors import InputError
-from ..fast import FastSpanModel
+from ..fast import SAMPLING_DEGREE, FastSpanModel
 from ..identification.band import band_abscissae
 from ..identification.design import default_inputs
 from ..identification.data import CorrectedData
@@ -68,7 +68,7 @@ def prior_from_s_opt(span_type: SpanType, catenary: Catenary, s_opt: pd.DataFram
         raise InputError(f"{source}: parameter(s) {', '.join(bad)}: expected a positive finite mu and sigma")
     model = FastSpanModel(span_type, catenary, messenger_tension_bounds_n=messenger_tension_range_n(means[-2],
                                                                                                      sigmas[-2]),
-                          degree=14, neighbours=identification.neighbours)
+                          degree=SAMPLING_DEGREE, neighbours=identification.neighbours)
     u_mu = u_sigma = None
     if law_uncertainty:
         def total(kind):
