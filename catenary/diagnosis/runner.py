@@ -8,9 +8,11 @@ From the starting model M (``diagnosis.start``), each step
 2. **names**: refits M + E for every candidate E not in M (warm start from M's optimum with E
    at its null, same design, N and likelihood), takes ``Δℓ = J(M+E) − J(M)`` and
    ``LR = 2Δℓ`` with the boundary-mixture null law (:func:`.locate.mixture_sf`), Bonferroni
-   over the K candidates of the step. A significant candidate's LR is divided by the
-   sandwich factor of its parameters (spans that share a mast, Chandler & Bate 2007) before it
-   is tested again. The candidates are ranked by BIC (equal parameter counts: by J). The
+   over the K candidates of the step. The LR of the significant leader by BIC and of its
+   runner-up is divided by the sandwich factor of their parameters (spans that share a mast,
+   Chandler & Bate 2007) before they are tested again (:func:`.refits.sandwich_leaders`;
+   the next significant one leads if the leader does not stay significant). The candidates
+   are ranked by BIC (equal parameter counts: by J). The
    leader is **named** if it is significant and the runner-up's BIC is at least
    ``bic_margin`` higher; **ambiguous** if it is significant but the runner-up is within the
    margin; **none_detected** if no candidate is significant;
@@ -41,7 +43,8 @@ from .locate import Locate
 from .model import EffectSampler
 from .problem import Fit, JointProblem, refit, with_covariance
 from .settings import DiagnosisSettings
-from .refits import CandidateTest, DiagnosisContext, base_moments_at, continue_refit, refit_and_test_all
+from .refits import (CandidateTest, DiagnosisContext, base_moments_at, continue_refit, refit_and_test_all,
+                     sandwich_leaders)
 
 __all__ = ["DiagnosisRun", "Step", "VERDICTS", "applicable_candidates", "diagnose", "make_sampler"]
 
@@ -214,9 +217,8 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
         progress = Progress(log, f"{span_type.name} step {k}", len(remaining), "candidates", every_s=0.0)
         for name, (test, new_fit) in refit_and_test_all(ctx, problem.effects, fit, base_moments, remaining, workers):
             results[name] = (test, new_fit)
-            progress.update(len(results), f"{name}: Δℓ = {test.delta_loglik:.2f}, LR = {test.lr_statistic:.2f} "
-                            f"(sandwich factor {test.lr_factor:.2f}), p = {test.p_value:.3g} (adjusted "
-                            f"{test.p_adjusted:.3g}), BIC {test.bic:.1f}; "
+            progress.update(len(results), f"{name}: Δℓ = {test.delta_loglik:.2f}, LR = {test.lr_statistic:.2f}, "
+                            f"p = {test.p_value:.3g} (adjusted {test.p_adjusted:.3g}), BIC {test.bic:.1f}; "
                             + ", ".join(f"{key} = {v[0]:.4g}" for key, v in test.estimates.items())
                             + f"; {test.n_evaluations} evaluations, {test.time_s:.1f} s")
         results = {name: results[name] for name in remaining}             # config order, whatever ended first
@@ -238,6 +240,11 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
                 log.info("%s step %d: %s after the restart: Δℓ = %.2f, p adjusted %.3g, BIC %.1f, %s", span_type.name,
                          k, name, results[name][0].delta_loglik, results[name][0].p_adjusted, results[name][0].bic,
                          "converged" if results[name][0].converged else "still not converged")
+        results = sandwich_leaders(ctx, problem.effects, fit, results, len(remaining))
+        for test, _ in results.values():
+            if np.isfinite(test.lr_factor):
+                log.info("%s step %d: %s with spans sharing a mast: sandwich factor %.2f, LR %.2f, adjusted p %.3g",
+                         span_type.name, k, test.effect, test.lr_factor, test.lr_statistic, test.p_adjusted)
         tests = [r[0] for r in results.values()]
         verdict, effect, runner = _verdict(tests, settings.level, settings.bic_margin)
         after = None
