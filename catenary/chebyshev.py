@@ -81,12 +81,8 @@ class BasisCache:
         return have[:degree + 1]
 
 
-def chebyshev_basis(t: np.ndarray, degree: int) -> np.ndarray:
-    """Chebyshev polynomials T_0..T_degree at ``t`` ∈ [−1, 1], shape (N, degree + 1)."""
-    return _chebyshev_rows(t, degree).T
-
-
 def _chebyshev_rows(t: np.ndarray, degree: int) -> np.ndarray:
+    """Chebyshev polynomials T_0..T_degree at ``t`` ∈ [−1, 1], shape (degree + 1, N)."""
     t = np.asarray(t, dtype=float).ravel()
     # One contiguous row per degree (4× faster than writing strided columns at N = 10⁴), the
     # same arithmetic: T_j = 2 t T_(j−1) − T_(j−2).
