@@ -40,10 +40,13 @@ def test_stacked_map_is_the_interpolated_matrix_times_x():
     high = fit_chebyshev(fun, lower, upper, (12, 5, 6))
     low = fit_chebyshev(fun, lower, upper, (5, 5, 3))
     assert high.degrees == (12, 0, 6)
-    cache = BasisCache(points)
-    for interp in (high, low):                        # the low map takes truncated cached bases
-        per_sample = interp(points).reshape(n, n_out, n_in) @ x[:, :, None]
-        mapped = StackedMap(interp, n_out, n_in)(points, x, cache)
-        # both sum the same products in another order: rounding only (values of order 10)
-        np.testing.assert_allclose(mapped, per_sample[:, :, 0], rtol=0, atol=1e-12)
-        np.testing.assert_array_equal(interp.basis(points, cache), interp.basis(points))
+    # high first: the low map takes truncated cached bases; low first: the cache must
+    # recompute its rows at the higher degree the high map asks for
+    for order in ((high, low), (low, high)):
+        cache = BasisCache(points)
+        for interp in order:
+            per_sample = interp(points).reshape(n, n_out, n_in) @ x[:, :, None]
+            mapped = StackedMap(interp, n_out, n_in)(points, x, cache)
+            # both sum the same products in another order: rounding only (values of order 10)
+            np.testing.assert_allclose(mapped, per_sample[:, :, 0], rtol=0, atol=1e-12)
+            np.testing.assert_array_equal(interp.basis(points, cache), interp.basis(points))
