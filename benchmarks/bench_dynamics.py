@@ -10,7 +10,8 @@ catenary's 1 ms step and at the correction's 4 ms, and quasi-static), and the pr
   stiffness, the droppers' Green's functions, the initial equilibrium);
 * inside the compiled time loop, timed by running each kernel alone as often as the loop does:
   ``solve`` (one banded back-substitution per step), ``unit responses`` (two more each time the
-  contact enters an element), ``M p + C q`` (the right-hand side's products) and the rest
+  contact enters an element), ``M (p + κ q)`` (the right-hand side's product; no product with
+  C is needed, see :func:`catenary.dynamics_kernel.newmark_contact_loop`) and the rest
   (``active set and updates``: the Newmark vectors, the dropper/contact active set, outputs).
 
 Numba's compilation is paid before any timing (a warm-up run), as a user pays it once per
@@ -28,7 +29,7 @@ import catenary.dynamics as dynamics
 from catenary.config import load_catenary
 from catenary.dropper_table import nominal_dropper_lengths
 from catenary.dynamics import CatenaryDynamics, PseudoForceSolver, run_pantograph
-from catenary.dynamics_kernel import band_diagonals, band_rows, band_solve, banded_products
+from catenary.dynamics_kernel import band_rows, band_solve, mass_band, symmetric_band_product
 from catenary.measuring import measuring_pass
 from catenary.pantograph import load_pantographs
 from catenary.section import uniform_section
@@ -41,9 +42,9 @@ def _repeat_solve(rows, inv_diag_sq, rhs, out, count):
 
 
 @njit(cache=True)
-def _repeat_products(m_diagonals, c_diagonals, p, q, f, out, count):
+def _repeat_products(m_upper, p, f, out, count):
     for _ in range(count):
-        banded_products(m_diagonals, c_diagonals, p, q, f, out)
+        symmetric_band_product(m_upper, p, f, out)
 
 
 def _timed_loop():
@@ -87,12 +88,12 @@ def profile(name: str, section, catenary, pantograph, speed_m_s: float, time_ste
     solve = time.perf_counter() - start
     elements = np.unique(np.searchsorted(ops.mesh.x_m, run.chainage_m, side="right")).size
     unit = solve * 2 * elements / n_steps
-    md, cd = band_diagonals(ops.mass, kd), band_diagonals(ops.damping, kd)
-    p, q = np.zeros(n + 2 * kd), np.zeros(n + 2 * kd)
-    p[kd:-kd], q[kd:-kd] = rhs, rhs
-    _repeat_products(md, cd, p, q, ops.f_const, out, 1)
+    m_upper = mass_band(ops.mass, kd)
+    p = np.zeros(n + 2 * kd)
+    p[kd:-kd] = rhs
+    _repeat_products(m_upper, p, ops.f_const, out, 1)
     start = time.perf_counter()
-    _repeat_products(md, cd, p, q, ops.f_const, out, n_steps)
+    _repeat_products(m_upper, p, ops.f_const, out, n_steps)
     products = time.perf_counter() - start
     loop_s = spent[0]
     parts = {"assembly": assembly, "set_up": total - loop_s, "solve": solve, "unit_responses": unit,

@@ -45,7 +45,7 @@ from .config import Catenary, DynamicSettings
 from .errors import ConvergenceError
 from .pantograph import Pantograph
 from .section import Section
-from .dynamics_kernel import band_diagonals, band_rows, newmark_contact_loop
+from .dynamics_kernel import band_rows, mass_band, newmark_contact_loop
 from .static import CW, DOFS_PER_NODE, MW, StaticModel, assemble_matrix, element_dofs
 
 BANDWIDTH = 5  # interleaved [cw_w, cw_θ, mw_w, mw_θ]: farthest coupling is node n ↔ θ of node n+1
@@ -486,8 +486,8 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
     kd = rows.shape[1] - 1                    # K_eff's half-bandwidth, which M and C share
     exact = ops._lam is not None
     status, bad_step = newmark_contact_loop(
-        n_steps, dt, x_steps, force_steps, np.array([a0, a1, a2, a3, a4, a5, gamma]), ops.f_const,
-        band_diagonals(ops.mass, kd), band_diagonals(ops.damping, kd), rows, inv_diag_sq,
+        n_steps, dt, x_steps, force_steps, np.array([a0, a1, a2, a3, a4, a5, gamma]), np.array(ops.rayleigh),
+        ops.f_const, mass_band(ops.mass, kd), rows, inv_diag_sq,
         np.ascontiguousarray(solver.z.T), solver.d, ops.dropper_mw.astype(np.int64), ops.dropper_cw.astype(np.int64),
         ops.dropper_k.astype(float), ops.dropper_l.astype(float), ops.mesh.x_m.astype(float),
         ops._lam if exact else np.zeros(1), ops._basis_inverse if exact else np.zeros((1, 4, 4)), exact,

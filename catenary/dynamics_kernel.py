@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["band_diagonals", "band_rows", "band_solve", "banded_products", "newmark_contact_loop"]
+__all__ = ["band_diagonals", "band_rows", "band_solve", "mass_band", "newmark_contact_loop", "symmetric_band_product"]
 
 #: Status codes of :func:`newmark_contact_loop`.
 OK, NOT_SETTLED = 0, 1
@@ -48,7 +48,7 @@ def band_rows(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def band_diagonals(matrix, kd: int) -> np.ndarray:
     """Diagonals of a sparse matrix of half-bandwidth ``kd``, shape (2 kd + 1, n):
     ``out[kd + d, i] = A[i, i + d]`` (zero where ``i + d`` is outside), for
-    :func:`banded_products`."""
+    :func:`mass_band`."""
     a = matrix.tocsr()
     n = a.shape[0]
     out = np.zeros((2 * kd + 1, n))
@@ -109,18 +109,44 @@ def band_solve(rows, inv_diag_sq, rhs, out):
     return out
 
 
+def mass_band(matrix, kd: int) -> np.ndarray:
+    """Upper diagonals of a symmetric sparse matrix of half-bandwidth ``kd``, padded for
+    :func:`symmetric_band_product`: ``out[d, kd + i] = A[i, i + d]`` (d = 0 … kd), shape
+    (kd + 1, n + 2 kd), zero where ``i + d`` is outside and in the padding."""
+    diagonals = band_diagonals(matrix, kd)
+    n = diagonals.shape[1]
+    out = np.zeros((kd + 1, n + 2 * kd))
+    out[:, kd:kd + n] = diagonals[kd:]
+    return out
+
+
 @njit(cache=True)
-def banded_products(m_diagonals, c_diagonals, p_padded, q_padded, f, out):
-    """``out = f + M p + C q`` with M, C given by :func:`band_diagonals` and p, q padded by kd
-    zeros at each end (``p_padded[kd + i] = p[i]``): one contiguous pass per diagonal."""
+def symmetric_band_product(upper, x_padded, f, out):
+    """``out = f + A x`` for a symmetric banded A given by :func:`mass_band` and x padded by kd
+    zeros at each end (``x_padded[kd + i] = x[i]``): each stored diagonal serves both of its
+    triangles, so A is read once, not twice."""
+    kd = upper.shape[0] - 1
     n = f.size
-    for i in range(n):
-        out[i] = f[i]
-    for d in range(m_diagonals.shape[0]):
-        m_row = m_diagonals[d]
-        c_row = c_diagonals[d]
+    if kd == 5:
+        # The usual half-bandwidth: the eleven products of a row summed as a tree, so no
+        # chain of additions limits the loop.
+        u0, u1, u2, u3, u4, u5 = upper[0], upper[1], upper[2], upper[3], upper[4], upper[5]
+        x = x_padded
         for i in range(n):
-            out[i] += m_row[i] * p_padded[i + d] + c_row[i] * q_padded[i + d]
+            j = i + 5
+            a = f[i] + u0[j] * x[j]
+            b = u1[j] * x[j + 1] + u1[j - 1] * x[j - 1]
+            c = u2[j] * x[j + 2] + u2[j - 2] * x[j - 2]
+            d = u3[j] * x[j + 3] + u3[j - 3] * x[j - 3]
+            e = u4[j] * x[j + 4] + u4[j - 4] * x[j - 4]
+            g = u5[j] * x[j + 5] + u5[j - 5] * x[j - 5]
+            out[i] = (a + b) + (c + d) + (e + g)
+        return
+    for i in range(n):
+        s = f[i] + upper[0, kd + i] * x_padded[kd + i]
+        for d in range(1, kd + 1):
+            s += upper[d, kd + i] * x_padded[kd + i + d] + upper[d, kd + i - d] * x_padded[kd + i - d]
+        out[i] = s
 
 
 @njit(cache=True)
@@ -145,16 +171,22 @@ def _shape(x_nodes, lam, basis_inverse, exact, e, x):
 
 
 @njit(cache=True)
-def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, f_const, m_diagonals, c_diagonals,
+def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, rayleigh, f_const, m_upper,
                          rows, inv_diag_sq, z_t, dd, dropper_mw, dropper_cw, dropper_k, dropper_l,
                          x_nodes, lam, basis_inverse, exact, element_dofs, m_p, c_p, k_eff_p_inv, p_flex,
                          reference, k_c, mast_dofs, static_mast, u, v, acc, y, yv, ya, slack, touching, f_c,
                          max_iterations, out_f, out_w, out_head, out_slack, out_uplift):
     """The time loop of ``run_pantograph`` from its initial state; fills the ``out_*`` arrays.
 
-    ``coefficients`` holds Newmark's (a0, a1, a2, a3, a4, a5, γ); the effective stiffness is
-    factorised in ``rows``, ``inv_diag_sq`` (:func:`band_rows`), M and C are given by their
-    diagonals (:func:`band_diagonals`) and ``z_t[j]`` is K_eff⁻¹ g_j. Returns (status, step):
+    ``coefficients`` holds Newmark's (a0, a1, a2, a3, a4, a5, γ) and ``rayleigh`` the damping's
+    (α, β) with ``C = α M + β K₀``; the effective stiffness ``K_eff = K₀ + a0 M + a1 C`` is
+    factorised in ``rows``, ``inv_diag_sq`` (:func:`band_rows`), M is given by its upper
+    diagonals (:func:`mass_band`) and ``z_t[j]`` is K_eff⁻¹ g_j.
+
+    The right-hand side ``f + M p + C q`` (p, q Newmark's combinations of u, v, a) needs no
+    product with C: since ``K_eff = (1 + a1 β) K₀ + (a0 + a1 α) M``,
+    ``K_eff⁻¹ (f + M p + C q) = K_eff⁻¹ (f + M (p + κ q)) + σ q`` with
+    ``σ = β / (1 + a1 β)`` and ``κ = α − σ (a0 + a1 α)``, exactly. Returns (status, step):
     status 1 when the dropper/contact states of ``step`` did not settle in ``max_iterations``.
     ``x_steps[k]`` is the contact point's chainage [m] and ``force_steps[k]`` the uplift force
     applied to the pantograph's head [N] at step ``k``.
@@ -173,14 +205,20 @@ def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, f_cons
     unit = np.zeros((n_slots, n))
     unit_rhs = np.zeros(n)
     slots = np.zeros(4, dtype=np.int64)
-    kd = (m_diagonals.shape[0] - 1) // 2
-    p = np.zeros(n + 2 * kd)                 # padded by kd zeros at each end
-    q = np.zeros(n + 2 * kd)
+    alpha, beta = rayleigh[0], rayleigh[1]
+    sigma = beta / (1.0 + a1 * beta)
+    kappa = alpha - sigma * (a0 + a1 * alpha)
+    # p + κ q and σ q as combinations of u, v, a.
+    pu, pv, pa = a0 + kappa * a1, a2 + kappa * a4, a3 + kappa * a5
+    su, sv, sa = sigma * a1, sigma * a4, sigma * a5
+    kd = m_upper.shape[0] - 1
+    pk = np.zeros(n + 2 * kd)                # p + κ q, padded by kd zeros at each end
+    shift = np.empty(n)                      # σ q
     rhs = np.empty(n)
     u_star = np.empty(n)
     for i in range(n):                       # the right-hand side's vectors of the first step
-        p[kd + i] = a0 * u[i] + a2 * v[i] + a3 * acc[i]
-        q[kd + i] = a1 * u[i] + a4 * v[i] + a5 * acc[i]
+        pk[kd + i] = pu * u[i] + pv * v[i] + pa * acc[i]
+        shift[i] = su * u[i] + sv * v[i] + sa * acc[i]
     keep = np.zeros(4, dtype=np.int64)
     shape = np.zeros(4)
     zp_g = np.empty(n_d)
@@ -202,8 +240,8 @@ def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, f_cons
                 shape[m] = full[j]
                 m += 1
         if step > 0:
-            # Right-hand side of the catenary's effective system (p, q from the last update).
-            banded_products(m_diagonals, c_diagonals, p, q, f_const, rhs)
+            # Right-hand side of the catenary's effective system (from the last update).
+            symmetric_band_product(m_upper, pk, f_const, rhs)
             # Pantograph predictor.
             rhs_p = np.zeros(n_p)
             rhs_p[0] = force_steps[step]
@@ -230,6 +268,8 @@ def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, f_cons
                 slot_used[found] = step
                 slots[j] = found
             band_solve(rows, inv_diag_sq, rhs, u_star)
+            for i in range(n):
+                u_star[i] += shift[i]
             # zp = K⁻¹ N_p (the response to a unit contact force) is needed at the droppers and
             # under the contact only: read there from the unit responses.
             for i in range(n_d):
@@ -298,8 +338,8 @@ def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, f_cons
                 column = z_t[s_idx[r]]
                 for i in range(n):
                     u_star[i] += column[i] * lam_s[r]
-            # One pass: the new state (u* + fc K⁻¹ N_p), Newmark's update, and p, q of the next
-            # step's right-hand side.
+            # One pass: the new state (u* + fc K⁻¹ N_p), Newmark's update, and p + κ q, σ q of
+            # the next step's right-hand side.
             c0 = shape[0] * fc if m > 0 else 0.0
             c1 = shape[1] * fc if m > 1 else 0.0
             c2 = shape[2] * fc if m > 2 else 0.0
@@ -313,8 +353,8 @@ def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, f_cons
                 u[i] = u_new
                 v[i] = v_new
                 acc[i] = acc_new
-                p[kd + i] = a0 * u_new + a2 * v_new + a3 * acc_new
-                q[kd + i] = a1 * u_new + a4 * v_new + a5 * acc_new
+                pk[kd + i] = pu * u_new + pv * v_new + pa * acc_new
+                shift[i] = su * u_new + sv * v_new + sa * acc_new
             y_new = y_star + p_flex * fc
             ya_new = a0 * (y_new - y) - a2 * yv - a3 * ya
             yv = yv + dt * ((1 - gamma) * ya + gamma * ya_new)
