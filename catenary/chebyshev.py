@@ -31,13 +31,18 @@ class ChebyshevInterpolant:
     degrees : tuple of int
         Polynomial degree per dimension.
     coefficients : numpy.ndarray
-        Chebyshev coefficients, shape (Π(degree + 1), m), C-ordered over the dimensions.
+        Chebyshev coefficients, shape (K, m): one row per tensor term, all Π(degree + 1) of
+        them C-ordered over the dimensions, or those of ``terms``.
+    terms : numpy.ndarray or None
+        The multi-indices (K, d) of the terms kept by :meth:`pruned`; None for the full
+        tensor product.
     """
 
     lower: np.ndarray
     upper: np.ndarray
     degrees: tuple[int, ...]
     coefficients: np.ndarray
+    terms: np.ndarray | None = None
 
     def basis(self, points: np.ndarray, cache: "BasisCache | None" = None) -> np.ndarray:
         """Tensor Chebyshev basis at ``points`` (N, d), shape (N, Π(degree + 1)).
@@ -54,8 +59,31 @@ class ChebyshevInterpolant:
             if deg == 0:                 # a constant dimension: a factor 1
                 continue
             b = cache.rows(dim, self.lower[dim], self.upper[dim], deg)
-            out = b if out is None else (out[:, None, :] * b[None, :, :]).reshape(-1, b.shape[1])
-        return np.ones((1, cache.points.shape[0])) if out is None else out
+            if self.terms is not None:
+                b = b[self.terms[:, dim]]
+                out = b if out is None else out * b
+            else:
+                out = b if out is None else (out[:, None, :] * b[None, :, :]).reshape(-1, b.shape[1])
+        return np.ones((self.coefficients.shape[0], cache.points.shape[0])) if out is None else out
+
+    def pruned(self, rtol: float) -> "ChebyshevInterpolant":
+        """The interpolant without its smallest tensor terms: those, smallest first, whose
+        largest coefficients sum to at most ``rtol`` times the largest coefficient of all.
+
+        Since ``|T_k| ≤ 1`` on the box, no value moves by more than that sum (times the
+        input's size, for a matrix applied to a vector). A product of Chebyshev series
+        decays along every dimension, so its high-high corner holds terms far below the
+        truncation error of either degree alone: those are the ones dropped.
+        """
+        magnitude = np.max(np.abs(self.coefficients), axis=1)
+        order = np.argsort(magnitude, kind="stable")
+        dropped = order[np.cumsum(magnitude[order]) <= rtol * magnitude.max()]
+        if dropped.size == 0:
+            return self
+        keep = np.setdiff1d(np.arange(magnitude.size), dropped)
+        grid = (np.argwhere(np.ones(tuple(d + 1 for d in self.degrees), dtype=bool)) if self.terms is None
+                else self.terms)
+        return ChebyshevInterpolant(self.lower, self.upper, self.degrees, self.coefficients[keep], grid[keep])
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """Interpolated values at ``points`` (N, d), shape (N, m)."""
@@ -134,15 +162,25 @@ _BLOCK_BYTES = 2 ** 19
 
 
 class StackedMap:
-    """A matrix map ``x ↦ M(p) @ x``, M (n_out × n_in) interpolated in Chebyshev form.
+    """A matrix map ``x ↦ M(p) @ x``, M (n_out × n_in) interpolated in Chebyshev form,
+    ``M(p) = Σ_k T_k(p) M_k`` over K terms.
 
-    The coefficient matrices ``M_k`` are stacked side by side so that one GEMM applies all of
-    them to a block of samples, ``Y = X [M_0ᵀ … M_(K−1)ᵀ]``; each sample's row of Y is then
-    summed over the basis, ``Σ_k T_k(p_i) Y_ik``, by a compiled loop (:func:`_sum_over_basis`).
-    That sum was NumPy's batched matmul of one (1 × K) by one (K × n_out) matrix per sample,
-    about as long as the GEMM itself; with the loop the whole map takes 1.6 ms against 2.3 ms
-    at the force map's shapes and 0.48 against 0.63 ms at the compliance map's (one-off
-    measurement on random matrices of those shapes, N = 10⁴, one BLAS thread, 2026-11-27).
+    Two orders of the same sums, chosen by shape; both give ``M(p_i) @ x_i`` to rounding:
+
+    * **K ≤ n_in** (few terms, a wide input): the coefficient matrices ``M_k`` are stacked side
+      by side so that one GEMM applies all of them to a block of samples,
+      ``Y = X [M_0ᵀ … M_(K−1)ᵀ]``; each sample's row of Y is then summed over the basis,
+      ``Σ_k T_k(p_i) Y_ik`` (:func:`_sum_over_basis`, compiled). With the loop the whole
+      force map takes 1.6 ms against 2.3 ms for NumPy's batched matmul (one-off measurement on
+      random matrices of its shapes, N = 10⁴, one BLAS thread, 2026-11-27).
+    * **K > n_in** (a 2-D interpolant: 1/T_MW with the CW clamp offset or T_CW): one GEMM
+      forms each sample's matrix, ``M(p_i) = Σ_k T_k(p_i) M_k`` — an inner dimension of K, not
+      n_in — and a compiled loop applies it (:func:`_apply_per_sample`). At the CW offset
+      model's shapes it measured 1.6–1.7× faster (force map, K = 65, n_in = 12: 8.6 → 5.2 ms;
+      compliance map, K = 25, n_in = 9: 2.5 → 1.5 ms; N = 10⁴, 2026-11-27).
+
+    Several maps evaluated at the same points share their one-dimensional bases through a
+    :class:`BasisCache`.
     """
 
     def __init__(self, interpolant: ChebyshevInterpolant, n_out: int, n_in: int):
@@ -150,21 +188,28 @@ class StackedMap:
         self.interpolant = interpolant
         self.n_basis = k
         self.n_out = n_out
-        self.stacked = interpolant.coefficients.reshape(k, n_out, n_in).transpose(2, 0, 1).reshape(n_in, k * n_out)
+        self.basis_first = k > n_in
+        if self.basis_first:
+            self.stacked = np.ascontiguousarray(interpolant.coefficients)       # (K, n_out n_in)
+        else:
+            self.stacked = interpolant.coefficients.reshape(k, n_out, n_in).transpose(2, 0, 1).reshape(n_in, k * n_out)
 
     def __call__(self, points: np.ndarray, x: np.ndarray, cache: BasisCache | None = None) -> np.ndarray:
         """``M(points_i) @ x_i`` for every row i, shape (N, n_out); ``cache`` as in
         :meth:`ChebyshevInterpolant.basis`."""
-        if self.n_basis == 1:
+        if self.n_basis == 1 and self.interpolant.terms is None:   # constant: K = 1 ≤ n_in
             return x @ self.stacked
         basis = self.interpolant.basis_rows(points, cache)
         out = np.empty((x.shape[0], self.n_out))
-        # Blocks of rows whose intermediate (rows × basis × outputs) stays in a core's cache:
+        # Blocks of rows whose intermediate (rows × its width) stays in a core's cache:
         # measured 1.4× faster than one pass over 10⁴ samples, whose intermediate is 11 MB.
         rows = max(64, _BLOCK_BYTES // (8 * self.stacked.shape[1]))
         for start in range(0, x.shape[0], rows):
             block = slice(start, start + rows)
-            _sum_over_basis(x[block] @ self.stacked, basis[:, block], out[block])
+            if self.basis_first:
+                _apply_per_sample(basis[:, block].T @ self.stacked, x[block], out[block])
+            else:
+                _sum_over_basis(x[block] @ self.stacked, basis[:, block], out[block])
         return out
 
 
@@ -180,3 +225,18 @@ def _sum_over_basis(y, basis, out):       # pragma: no cover - compiled; tested 
             base = k * n_out
             for o in range(n_out):
                 out[i, o] += b * y[i, base + o]
+
+
+@njit(cache=True)
+def _apply_per_sample(matrices, x, out):  # pragma: no cover - compiled; tested through StackedMap
+    """``out[i, o] = Σ_j matrices[i, o n_in + j] x[i, j]``: each sample's own matrix (row-major)
+    applied to its own vector."""
+    n_out = out.shape[1]
+    n_in = x.shape[1]
+    for i in range(x.shape[0]):
+        for o in range(n_out):
+            base = o * n_in
+            s = 0.0
+            for j in range(n_in):
+                s += matrices[i, base + j] * x[i, j]
+            out[i, o] = s

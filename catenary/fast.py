@@ -68,6 +68,15 @@ EXTRA_COLUMNS = ("cw_weight", "raise_left", "raise_right")
 #: less than degree 14's, which they used until 2026-11-27.
 SAMPLING_DEGREE = 10
 
+#: Tensor terms dropped from the maps of a 2-D interpolant (1/T_MW with the CW clamp offset or
+#: T_CW; :meth:`~catenary.chebyshev.ChebyshevInterpolant.pruned`): those whose largest
+#: coefficients sum to at most this fraction of the largest. On the diagnosis's CW offset
+#: model (N2 and N3, 10⁴ samples, T_MW ±20 %, offsets −0.1 ± 0.1 m) it keeps 65 of the force
+#: map's 77 terms and 13 of W's 49 and moves W by 5e-10 m and the dropper forces by 5e-8 N,
+#: against the offset interpolation's own 3.3e-5 m; the 1-D maps of the base model keep all
+#: theirs (their smallest term is 2e-8 of the largest).
+PRUNE_RTOL = 1e-10
+
 
 @dataclass(frozen=True)
 class CondensedSpan:
@@ -365,9 +374,9 @@ class FastSpanModel:
         # FE model within 1e-9 m (degree 4: 6e-9 m) over 15–26 kN, at half the cost of degree 14.
         self._w_degrees = (min(degree, 6), cw_degree, offset_degree)
         deflection = fit_chebyshev(deflection_map, *self._w_box, self._w_degrees)
-        self._force = StackedMap(force, n, n + 3 + n_extra)
-        self._compliance = StackedMap(compliance, n, n)
-        self._deflection = StackedMap(deflection, n, 2 * n + 3 + n_extra)
+        self._force = StackedMap(force.pruned(PRUNE_RTOL), n, n + 3 + n_extra)
+        self._compliance = StackedMap(compliance.pruned(PRUNE_RTOL), n, n)
+        self._deflection = StackedMap(deflection.pruned(PRUNE_RTOL), n, 2 * n + 3 + n_extra)
 
     @property
     def variable_offset(self) -> bool:

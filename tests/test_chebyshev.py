@@ -1,6 +1,7 @@
 """Chebyshev interpolation and the stacked matrix map the fast model applies per sample."""
 
 import numpy as np
+import pytest
 
 from catenary.chebyshev import BasisCache, StackedMap, fit_chebyshev
 
@@ -27,11 +28,13 @@ def test_interpolant_converges_to_an_analytic_function():
     assert errors[2] < 1e-9
 
 
-def test_stacked_map_is_the_interpolated_matrix_times_x():
-    """StackedMap (one GEMM with the coefficients side by side, then a compiled sum over the
-    basis) against the interpolated matrix assembled per sample and applied by matmul; a
-    constant dimension (lower = upper) and bases lent by a cache to a lower degree."""
-    n_out, n_in, n = 4, 5, 1000
+@pytest.mark.parametrize("n_in", [5, 30])
+def test_stacked_map_is_the_interpolated_matrix_times_x(n_in):
+    """StackedMap against the interpolated matrix assembled per sample and applied by matmul;
+    a constant dimension (lower = upper) and bases lent by a cache to a lower degree. With 5
+    inputs both maps take the basis-first order (K > n_in); with 30 the low map (K = 24) takes
+    the stacked GEMM and the compiled sum over the basis."""
+    n_out, n = 4, 1000
     fun = _matrix_function(n_out, n_in, seed=2)
     lower, upper = [0.2, 0.3, -0.5], [0.8, 0.3, 0.5]          # the second dimension constant
     rng = np.random.default_rng(3)
@@ -50,3 +53,35 @@ def test_stacked_map_is_the_interpolated_matrix_times_x():
             # both sum the same products in another order: rounding only (values of order 10)
             np.testing.assert_allclose(mapped, per_sample[:, :, 0], rtol=0, atol=1e-12)
             np.testing.assert_array_equal(interp.basis(points, cache), interp.basis(points))
+    assert StackedMap(high, n_out, n_in).basis_first
+    assert StackedMap(low, n_out, n_in).basis_first == (n_in == 5)
+
+
+def test_pruning_drops_the_cross_terms_of_a_separable_function_and_keeps_its_bound():
+    """A sum of a function of s and one of d has no s·d terms: pruning finds them at rounding
+    level and drops them all. A product keeps its cross terms. Either way the values move by
+    no more than the dropped coefficients' sum (|T_k| ≤ 1)."""
+    rng = np.random.default_rng(4)
+    a, b, f = (rng.standard_normal(6) for _ in range(3))
+    lower, upper = [0.2, 0.0], [0.8, 0.5]
+    points = rng.uniform(lower, upper, (500, 2))
+    rtol = 1e-12
+    separable = fit_chebyshev(lambda p: a + b / (1.0 + p[0]) + f * np.sin(p[1]), lower, upper, (10, 6))
+    pruned = separable.pruned(rtol)
+    assert pruned.terms is not None
+    assert np.all((pruned.terms[:, 0] == 0) | (pruned.terms[:, 1] == 0))
+    assert pruned.terms.shape[0] == 11 + 7 - 1          # every pure term is far above 1e-12
+    bound = rtol * np.abs(separable.coefficients).max()
+    assert np.abs(pruned(points) - separable(points)).max() <= bound
+    product = fit_chebyshev(lambda p: a * np.exp(p[0]) * np.cos(p[1]), lower, upper, (10, 6))
+    kept = product.pruned(rtol)
+    assert np.any((kept.terms[:, 0] > 0) & (kept.terms[:, 1] > 0))
+    assert np.abs(kept(points) - product(points)).max() <= rtol * np.abs(product.coefficients).max()
+    # pruning twice is pruning once more on the kept terms; a map of them is the same map
+    again = kept.pruned(rtol)
+    x = rng.standard_normal((500, 3))
+    matrix = fit_chebyshev(lambda p: np.outer(a[:2], [1.0, p[0], p[1] ** 2]).ravel() * np.exp(p[0] * p[1]),
+                           lower, upper, (10, 6)).pruned(rtol)
+    per_sample = matrix(points).reshape(500, 2, 3) @ x[:, :, None]
+    np.testing.assert_allclose(StackedMap(matrix, 2, 3)(points, x), per_sample[:, :, 0], rtol=0, atol=1e-12)
+    assert again.terms.shape[0] <= kept.terms.shape[0]
