@@ -45,7 +45,7 @@ from .config import Catenary, DynamicSettings
 from .errors import ConvergenceError
 from .pantograph import Pantograph
 from .section import Section
-from .dynamics_kernel import band_rows, mass_band, newmark_contact_loop
+from .dynamics_kernel import SINGULAR, band_rows, mass_band, newmark_contact_loop
 from .static import CW, DOFS_PER_NODE, MW, StaticModel, assemble_matrix, element_dofs
 
 BANDWIDTH = 5  # interleaved [cw_w, cw_θ, mw_w, mw_θ]: farthest coupling is node n ↔ θ of node n+1
@@ -494,6 +494,9 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
         ops._element_free_dofs.astype(np.int64), m_p, c_p, k_eff_p_inv, p_flex, reference, k_c,
         mast_dofs.astype(np.int64), static_mast, u, v, acc, y, yv, ya, np.asarray(slack, dtype=np.bool_),
         True, f0, solver.max_iterations, out["f"], out["w"], out["head"], out["slack"], uplift)
+    if status == SINGULAR:      # as np.linalg.solve would raise: not a physics outcome
+        raise np.linalg.LinAlgError(f"singular dropper/contact system at step {bad_step} "
+                                    f"(chainage {x_steps[bad_step]:.2f} m)")
     if status != 0:
         raise ConvergenceError(f"dropper/contact states did not settle in {solver.max_iterations} iterations "
                                f"at step {bad_step} (chainage {x_steps[bad_step]:.2f} m)")

@@ -247,6 +247,16 @@ class FastResult:
     slack: np.ndarray
 
 
+def row_minimum(values: np.ndarray) -> np.ndarray:
+    """The smallest entry of each row of ``values`` (N, n), for a few columns n: one pass per
+    column, the same numbers as ``values.min(axis=1)`` at a fifth of its time (74 against
+    380 µs at 10⁴ × 9, 2026-11-27: NumPy reduces a short last axis row by row)."""
+    out = values[:, 0].copy()
+    for j in range(1, values.shape[1]):
+        np.minimum(out, values[:, j], out=out)
+    return out
+
+
 class FastSpanModel:
     """Vectorised static model of one span of a given type, exact to the FE model.
 
@@ -461,7 +471,7 @@ class FastSpanModel:
             sl = slice(start, min(start + chunk_size, n_samples))
             force[sl], w[sl] = self._evaluate_chunk(lengths[sl], t_mw[sl], dh_l[sl], dh_r[sl], t_cw[sl], delta[sl],
                                                     loads[sl], solve_slack=slack == "solve")
-        return FastResult(w_m=w, dropper_force_n=force, slack=np.any(force <= 0.0, axis=1))
+        return FastResult(w_m=w, dropper_force_n=force, slack=row_minimum(force) <= 0.0)
 
     def profile_map(self, x_m: np.ndarray) -> "ProfileMap":
         """The CW deflection from the chord at abscissae ``x_m`` of the span [m], affine in the

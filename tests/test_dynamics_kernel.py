@@ -5,7 +5,7 @@ import pytest
 import scipy.sparse as sp
 from scipy.linalg import cholesky_banded, solve
 
-from catenary.dynamics_kernel import band_diagonals, band_rows, band_solve, mass_band, symmetric_band_product
+from catenary.dynamics_kernel import _solve_small, band_diagonals, band_rows, band_solve, mass_band, symmetric_band_product
 
 
 def spd_banded(n: int, kd: int, seed: int) -> sp.csr_matrix:
@@ -52,3 +52,20 @@ def test_symmetric_band_product_equals_the_sparse_product(kd, width):
 def test_band_diagonals_refuse_a_wider_matrix():
     with pytest.raises(ValueError, match="half-bandwidth 3"):
         band_diagonals(spd_banded(40, 5, seed=0), 3)
+
+
+@pytest.mark.parametrize("n", [1, 4, 9])
+def test_small_dense_solve_equals_numpy_and_flags_a_singular_system(n):
+    # The active set's system (a few slack droppers and the contact): partial pivoting, so a
+    # zero leading entry is no obstacle; round-off of a system of condition ≈ 10: 1e-13.
+    rng = np.random.default_rng(n)
+    a = rng.normal(size=(n, n)) + 3 * np.eye(n)
+    if n > 1:
+        a[0, 0] = 0.0
+    b = rng.normal(size=n)
+    x = np.empty(n)
+    assert _solve_small(a.copy(), b.copy(), x)
+    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-13, atol=1e-13)
+    singular = a.copy()
+    singular[-1] = 0.0
+    assert not _solve_small(singular, b.copy(), np.empty(n))

@@ -26,7 +26,7 @@ import numpy as np
 from ..config import Catenary, SpanType
 from ..effects import EFFECTS, SpanParameters
 from ..errors import OutOfModelRangeError
-from ..fast import SAMPLING_DEGREE, FastSpanModel
+from ..fast import SAMPLING_DEGREE, FastSpanModel, row_minimum
 from ..identification.design import map_inputs
 from .candidates import CANDIDATES
 
@@ -40,15 +40,16 @@ CONTACT_TENSION_RANGE = 0.10
 OFFSET_BOUNDS_M = (-0.5, 0.5)
 #: Chebyshev degrees in 1/T_CW and in the offset: within 5e-7 m and 3.3e-5 m of exact
 #: condensations (measured; the data's correction residual is ≈ 6e-4 m RMS), at a J cost of
-#: 3× and 7× the base model's.
+#: 1.5× and 1.8× the base model's (:data:`COST_FACTORS`).
 CONTACT_DEGREE, OFFSET_DEGREE = 2, 6
 
 
-#: Cost of one J evaluation relative to the base model's, per need of the fast model: measured on
-#: the diagnosis benchmark's N2 data (117 spans, N = 10⁴, one BLAS thread: ≈ 9 ms per evaluation
-#: for the base, 18 ms with a per-sample T_CW, 30 ms with a CW clamp offset); two span models
-#: for ``continuity``.
-COST_FACTORS = {"offset": 3.3, "contact_tension": 2.0, "continuity": 2.0}
+#: Cost of one J evaluation relative to the base model's, per need of the fast model: measured in
+#: the default run's N2 diagnosis (117 spans, N = 10⁴, one BLAS thread, 2026-11-27: 7.4 ms per
+#: evaluation for the base, 10.9 ms with a per-sample T_CW, 13.5 ms with a CW clamp offset; 18
+#: and 30 ms before the 2-D maps were pruned and applied basis-first); two span models for
+#: ``continuity``. Only the order in which parallel workers take the refits reads it.
+COST_FACTORS = {"offset": 1.8, "contact_tension": 1.5, "continuity": 2.0}
 
 
 def relative_cost(needs) -> float:
@@ -188,7 +189,7 @@ class EffectSampler:
             return None
         if "force_influence" in self.needs:
             w = w + (p.measuring_force_n - self.declared_force_n) * self.models.force_influence_m_n
-        return w, force.min(axis=1)
+        return w, row_minimum(force)
 
     def _solve(self, model: FastSpanModel, p: SpanParameters):
         kwargs = {}

@@ -54,6 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import openturns as ot
+from numba import njit
 from scipy import special
 from scipy.stats import qmc
 
@@ -159,11 +160,8 @@ def gamma_quantiles(z: np.ndarray, means: np.ndarray, sigmas: np.ndarray) -> np.
         -3.0 * c3 / 810.0,                                # z⁴
         9.0 * c4 / 38880.0,                               # z⁵
     ]
-    out = np.multiply(z, a[5] * sd)
-    for j in (4, 3, 2, 1):
-        out += a[j] * sd
-        out *= z
-    out += a[0] * sd
+    out = np.empty(z.shape)
+    _horner(z, np.array([a[j] * sd for j in range(6)]), out)
     for j in np.flatnonzero(c > CORNISH_FISHER_MAX_CV):
         k = 1.0 / c[j] ** 2
         zj = z[:, j]
@@ -301,6 +299,21 @@ class SpanInputs:
     messenger_tension_n: np.ndarray
     system_height_left_m: np.ndarray
     system_height_right_m: np.ndarray
+
+
+@njit(cache=True)
+def _horner(z, coefficients, out):       # pragma: no cover - compiled; tested through gamma_quantiles
+    """``out[i, j] = Σ_p coefficients[p, j] z[i, j]^p`` by Horner's rule, one pass over z: the
+    operations and their order of NumPy's whole-array passes (z·c₅, +c₄, ·z, …, +c₀), so the
+    same numbers, at a fifth of their time (ten passes over 10⁵ values were 1 ms of each J)."""
+    for i in range(z.shape[0]):
+        for j in range(z.shape[1]):
+            x = z[i, j]
+            o = x * coefficients[5, j]
+            for p in range(4, 0, -1):
+                o += coefficients[p, j]
+                o *= x
+            out[i, j] = o + coefficients[0, j]
 
 
 def map_inputs(z: np.ndarray, means: np.ndarray, sigmas: np.ndarray,

@@ -46,7 +46,7 @@ from scipy import special
 from scipy.linalg import solve_triangular
 
 from ..errors import OutOfModelRangeError
-from ..fast import FastSpanModel
+from ..fast import FastSpanModel, row_minimum
 from .design import UnitDesign, design_dimension, map_inputs
 
 __all__ = ["BANDWIDTH_RULES", "ESTIMATORS", "GaussianFit", "Likelihood", "LikelihoodValue",
@@ -349,7 +349,7 @@ class Likelihood:
             return None
         res = self.model.evaluate(x.dropper_lengths_m, t, x.system_height_left_m,
                                   x.system_height_right_m, chunk_size=self.chunk_size)
-        return res.w_m, res.dropper_force_n.min(axis=1)
+        return res.w_m, row_minimum(res.dropper_force_n)
 
     def _chunks(self, means, sigmas, extra=None):
         """Yield (W, weights, F_min) per block of the design, or None if T_MW is out of range."""
