@@ -6,3 +6,7 @@ and testable without Snakemake. SI units throughout.
 """
 
 __version__ = "0.1.0"
+
+from .heap import steady_heap
+
+steady_heap()       # glibc keeps freed arrays' memory for the next ones (catenary.heap)

@@ -160,7 +160,7 @@ def gamma_quantiles(z: np.ndarray, means: np.ndarray, sigmas: np.ndarray) -> np.
         -3.0 * c3 / 810.0,                                # z⁴
         9.0 * c4 / 38880.0,                               # z⁵
     ]
-    out = np.empty(z.shape)
+    out = np.empty_like(z)                  # z's memory order, as NumPy's passes kept it
     _horner(z, np.array([a[j] * sd for j in range(6)]), out)
     for j in np.flatnonzero(c > CORNISH_FISHER_MAX_CV):
         k = 1.0 / c[j] ** 2
