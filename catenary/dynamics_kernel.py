@@ -304,9 +304,9 @@ def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, raylei
                     slot_dof[found] = keep[j]
                 slot_used[found] = step
                 slots[j] = found
+            # u* = K_eff⁻¹ rhs + σ q: the σ q term is added where u* is read (the droppers, the
+            # contact, the update pass), not in a pass of its own.
             band_solve(rows, inv_diag_sq, rhs, u_star)
-            for i in range(n):
-                u_star[i] += shift[i]
             # zp = K⁻¹ N_p (the response to a unit contact force) is needed at the droppers and
             # under the contact only: read there from the unit responses.
             for i in range(n_d):
@@ -314,11 +314,12 @@ def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, raylei
                 for j in range(m):
                     s += (unit[slots[j], dropper_mw[i]] - unit[slots[j], dropper_cw[i]]) * shape[j]
                 zp_g[i] = s
-                e_star[i] = u_star[dropper_mw[i]] - u_star[dropper_cw[i]] - dropper_l[i]
+                mw, cw = dropper_mw[i], dropper_cw[i]
+                e_star[i] = (u_star[mw] + shift[mw]) - (u_star[cw] + shift[cw]) - dropper_l[i]
             w_star = 0.0
             cz = 0.0
             for j in range(m):
-                w_star += shape[j] * u_star[keep[j]]
+                w_star += shape[j] * (u_star[keep[j]] + shift[keep[j]])
                 for k in range(m):
                     cz += shape[j] * unit[slots[k], keep[j]] * shape[k]
             # Active set of slack droppers and contact.
@@ -386,7 +387,7 @@ def newmark_contact_loop(n_steps, dt, x_steps, force_steps, coefficients, raylei
             r0, r1 = unit[slots[0]], unit[slots[1] if m > 1 else slots[0]]
             r2, r3 = unit[slots[2] if m > 2 else slots[0]], unit[slots[3] if m > 3 else slots[0]]
             for i in range(n):
-                u_new = u_star[i] + c0 * r0[i] + c1 * r1[i] + c2 * r2[i] + c3 * r3[i]
+                u_new = (u_star[i] + shift[i]) + c0 * r0[i] + c1 * r1[i] + c2 * r2[i] + c3 * r3[i]
                 acc_new = a0 * (u_new - u[i]) - a2 * v[i] - a3 * acc[i]
                 v_new = v[i] + dt * ((1 - gamma) * acc[i] + gamma * acc_new)
                 u[i] = u_new
