@@ -12,8 +12,9 @@ mass, not two: the damping is Rayleigh's, so its product is carried through ``K_
 (:func:`newmark_contact_loop`), and the mass's symmetric band is read once, its eleven products
 per row summed as a tree (:func:`symmetric_band_product`); the slack droppers' Green's
 functions are stored one dropper per row. Per step of a 20-span section (9 583 unknowns):
-solve 189 → 59 → 35 µs, right-hand side 171 → 54 → 14 µs (one-off measurements of each kernel
-alone, 2026-11-25 and 2026-11-27). The contact forces and heights are those of the Python loop
+solve 189 → 59 µs and right-hand side 171 → 54 µs (2026-11-25), then the right-hand side
+54 → 14 µs (2026-11-27, when the unchanged solve measured 35–40 µs): one-off measurements of
+each kernel alone. The contact forces and heights are those of the Python loop
 to rounding (fixture test), and ``docs/performance.md`` gives the profile.
 
 Numba compiles the functions on first use and caches the machine code next to this file
