@@ -176,7 +176,7 @@ class StackedMap:
     * **K > n_in** (a 2-D interpolant: 1/T_MW with the CW clamp offset or T_CW): one GEMM
       forms each sample's matrix, ``M(p_i) = Σ_k T_k(p_i) M_k`` — an inner dimension of K, not
       n_in — and a compiled loop applies it (:func:`_apply_per_sample`). At the CW offset
-      model's shapes it measured 1.6–1.7× faster (force map, K = 65, n_in = 12: 8.6 → 5.2 ms;
+      model's shapes it measured 1.6–1.8× faster (force map, K = 65, n_in = 12: 8.7–9.5 → 4.7–5.7 ms;
       compliance map, K = 25, n_in = 9: 2.5 → 1.5 ms; N = 10⁴, 2026-11-27).
 
     Several maps evaluated at the same points share their one-dimensional bases through a
