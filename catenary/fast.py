@@ -248,8 +248,9 @@ class FastResult:
 
 
 def _within(values: np.ndarray, lower: float, upper: float) -> bool:
-    """Every value finite and within [lower, upper] (a NaN fails both comparisons)."""
-    return bool(values.min() >= lower) and bool(values.max() <= upper)
+    """Every value finite and within [lower, upper] (a NaN fails both comparisons); True for
+    no values."""
+    return values.size == 0 or (bool(values.min() >= lower) and bool(values.max() <= upper))
 
 
 def _inputs(first: np.ndarray, left: np.ndarray, right: np.ndarray, loads: np.ndarray) -> np.ndarray:
@@ -510,8 +511,7 @@ class FastSpanModel:
         return ProfileMap(x_m=x, operator=StackedMap(interpolant, x.size, 2 * self.n_droppers + 3))
 
     def _evaluate_chunk(self, lengths, t_mw, dh_l, dh_r, t_cw, delta, loads, solve_slack=False):
-        n_samples, n = lengths.shape
-        points = np.empty((n_samples, 3))
+        points = np.empty((lengths.shape[0], 3))
         np.divide(1.0, t_mw, out=points[:, 0])
         np.divide(1.0, t_cw, out=points[:, 1])
         points[:, 2] = delta
