@@ -1,13 +1,13 @@
 """A steady heap: freed arrays' memory kept for the next ones instead of returned to the system.
 
-The fast model and the likelihood allocate and free arrays of 0.1–10 MB thousands of times per
-second (a J evaluation makes ≈ 40 of them). glibc's ``malloc`` serves a block above its *mmap
+The fast model and the likelihood allocate and free arrays of 0.1–10 MB at every J evaluation,
+hundreds of evaluations per second. glibc's ``malloc`` serves a block above its *mmap
 threshold* by a fresh ``mmap`` and gives the heap's free top back to the system above its
 *trim threshold*; both start at 128 kB and the first moves with the sizes freed, so whether an
 array costs a fresh mapping (a page fault and a zeroed page per 4 kB on its first write) depends
 on the order of earlier allocations. Measured on this 2-core machine (2026-11-27, the default
-run's N2 identification, 677 + 365 + 2 356 J evaluations): 36–38 s with glibc's defaults against
-22–23 s with the thresholds below, and the same numbers; a one-line change of how one array was
+run's N2 identification, 677 + 365 + 2 356 J evaluations): 34–38 s with glibc's defaults against
+20–23 s with the thresholds below, and the same numbers; a one-line change of how one array was
 allocated had moved it from 26 to 36 s.
 
 :func:`steady_heap` fixes the mmap threshold at 32 MB (glibc's largest) and the trim threshold
