@@ -51,6 +51,24 @@ def filtered_window(run: RunResult, start_m: float, end_m: float, cutoff_hz: flo
     return filtered[window]
 
 
+def analysis_stop_m(mast_chainage_m: np.ndarray, last_mast: int) -> float:
+    """Where a run whose statistics end at mast ``last_mast`` may stop: one span after that mast
+    (the last mast of the section if there is none) [m]; pass it as ``stop_m`` to
+    :func:`~catenary.dynamics.run_pantograph`.
+
+    The section keeps its run-out spans (the waves they reflect reach the window while the
+    pantograph is still in it); only the simulated time after the pantograph has left the window
+    is saved. Nothing after a step changes it, and the statistics read the window's steps
+    through two things that look ahead: the zero-phase filter, whose backward pass forgets the
+    run's end within ≈ 0.1 s at 20 Hz (a span takes ≈ 0.7 s at 300 km/h, ≈ 1e-15 of it is left);
+    and the window's largest steady-arm uplift, which a mast reaches as the pantograph passes it
+    (measured: ≈ 0.2 m after the mast), not a span later. On a 10-span section analysed
+    between masts 3 and 7 it saves 20 % of the steps.
+    """
+    masts = np.asarray(mast_chainage_m, dtype=float)
+    return float(masts[min(last_mast + 1, masts.size - 1)])
+
+
 def contact_statistics(run: RunResult, start_m: float, end_m: float, mast_chainage_m: np.ndarray,
                        cutoff_hz: float = 20.0) -> ContactStatistics:
     """Statistics of ``run`` over chainages [start_m, end_m] (filtered at ``cutoff_hz``)."""

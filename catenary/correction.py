@@ -149,6 +149,9 @@ class RunCorrection:
         than the neighbours let a taut dropper hold it).
     section : Section or None
         The final model (None when the run failed): what the model-error budget perturbs.
+    simulated_height_m : numpy.ndarray or None
+        The last simulated pass, over the final model: CW heights at the run's droppers, then
+        at its masts [m] (None when the run failed); the model-error budget's base pass.
     """
 
     span_id: np.ndarray
@@ -160,6 +163,7 @@ class RunCorrection:
     failure: str = ""
     slack_droppers: np.ndarray | None = None
     section: Section | None = None
+    simulated_height_m: np.ndarray | None = None
 
 
 def fill_unmeasured(rows: pd.DataFrame, report: pd.DataFrame, catenary: Catenary) -> pd.DataFrame:
@@ -351,7 +355,8 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
         static_w[k, :n_d[k]] = w[section.dropper_span == k]
     slack = np.bincount(section.dropper_span, inverse.slack, minlength=len(rows)).astype(int)
     return RunCorrection(span_ids, static_w, history[-1][1], _passes(history, settings.mode), history,
-                         section.dropper_lengths_m, slack_droppers=slack, section=section)
+                         section.dropper_lengths_m, slack_droppers=slack, section=section,
+                         simulated_height_m=simulated)
 
 
 def measured_residuals(rows: pd.DataFrame, result: RunCorrection, common_w_m: np.ndarray, catenary: Catenary,

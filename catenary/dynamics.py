@@ -414,7 +414,8 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
                    start_m: float | None = None, end_m: float | None = None,
                    time_step_s: float | None = None,
                    speed_profile: tuple[np.ndarray, np.ndarray] | None = None,
-                   force_profile: tuple[np.ndarray, np.ndarray] | None = None) -> RunResult:
+                   force_profile: tuple[np.ndarray, np.ndarray] | None = None,
+                   stop_m: float | None = None) -> RunResult:
     """Run ``pantograph`` over the section from ``start_m`` to ``end_m``.
 
     The run starts from the static equilibrium of catenary and pantograph with the uplift
@@ -431,6 +432,11 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
     force_profile : (numpy.ndarray, numpy.ndarray), optional
         ``(chainage_m, delta_force_n)``: a fluctuation of the regulated uplift force along the
         line [N], added to the mean force (linear between the knots, held beyond them).
+    stop_m : float, optional
+        Simulate only the steps whose contact point lies at or before this chainage [m]. The
+        run is still the one from ``start_m`` to ``end_m`` (the same steps, the pantograph's
+        reference height that of the whole run); a step cannot depend on later ones, so the
+        result is the first steps of the whole run's, exactly. Default: ``end_m``.
     """
     settings = ops.settings
     dt = settings.time_step_s if time_step_s is None else time_step_s
@@ -438,6 +444,8 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
     start = masts[0] if start_m is None else start_m
     end = masts[-1] if end_m is None else end_m
     x_steps = contact_path(start, end, speed_m_s, dt, speed_profile)
+    if stop_m is not None:
+        x_steps = x_steps[:max(int(np.searchsorted(x_steps, stop_m, side="right")), 1)]
     n_steps = x_steps.size
     f_mean = pantograph.mean_force_n(speed_m_s)
     if speed_profile is None:

@@ -15,8 +15,6 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .model_error.propagation import Z95
-
 __all__ = ["correction_round_trip", "identification_round_trip", "match_spans", "projection_round_trip",
            "realized_truth", "registration_round_trip", "repeatability_round_trip"]
 
@@ -289,6 +287,8 @@ def identification_round_trip(s_opt: pd.DataFrame, corrected: pd.DataFrame, trut
         ``profile_high``, ``inside_profile`` (statistical) and ``total_low``, ``total_high``,
         ``inside_total`` (with the correction's model error; NaN/False when not measured).
     """
+    from .model_error.propagation import Z95   # here: the other checks' jobs need not load the identification
+
     converged = corrected[corrected["converged"]]
     used = pd.Series(match_spans(converged, truth)).drop_duplicates()
     used = used[used != ""]

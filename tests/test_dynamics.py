@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from catenary.config import SteadyArm
-from catenary.contact_statistics import contact_statistics, lowpass
+from catenary.contact_statistics import analysis_stop_m, contact_statistics, lowpass
 from catenary.dropper_table import nominal_dropper_lengths
 from catenary.dynamics import (CatenaryDynamics, free_vibration, natural_frequencies_hz, quasi_static_heights,
                                run_pantograph)
@@ -107,17 +107,47 @@ def test_undamped_free_vibration_conserves_energy(catenary, n2):
     assert np.max(np.abs(energy / energy[0] - 1)) < 1e-3
 
 
-def test_high_speed_statistics_are_plausible(catenary, n2, pantographs):
+@pytest.fixture(scope="module")
+def ten_spans_at_300(catenary, n2, pantographs):
+    """The EN 50318-like case: 10 nominal N2 spans, the reference pantograph at 300 km/h."""
+    section = uniform_section(n2, 10, nominal_dropper_lengths(n2, catenary).dropper_lengths_m)
+    ops = CatenaryDynamics(section, catenary)
+    return section, ops, run_pantograph(ops, pantographs["reference_2mass"], 300 / 3.6)
+
+
+def test_high_speed_statistics_are_plausible(ten_spans_at_300):
     # EN 50318:2002 reference ranges at 300 km/h: Fm 110–120 N, σ 32–40 N. The reference
     # model's own inputs are unverified and our catenary is stiffer, so ±15 % of the range.
-    section = uniform_section(n2, 10, nominal_dropper_lengths(n2, catenary).dropper_lengths_m)
-    run = run_pantograph(CatenaryDynamics(section, catenary), pantographs["reference_2mass"], 300 / 3.6)
+    section, _, run = ten_spans_at_300
     masts = section.mast_chainage_m
     stats = contact_statistics(run, masts[3], masts[7], masts)
     assert 110 * 0.85 <= stats.mean_force_n <= 120 * 1.15
     assert 32 * 0.85 <= stats.std_force_n <= 40 * 1.15
     assert stats.contact_loss_percent == 0.0
     assert stats.max_support_uplift_m > 0.01
+
+
+def test_a_run_stopped_a_span_after_the_window_has_the_same_statistics(ten_spans_at_300, pantographs):
+    # Causality: the stopped run is the whole run's first steps, bit for bit (the same steps and
+    # reference height). The statistics then differ only through the zero-phase filter's look
+    # ahead, which fades within ≈ 0.1 s (a span is ≈ 0.7 s), and the uplift a mast reaches after
+    # the pantograph left the window (none: it peaks as the pantograph passes): 1e-12 relative
+    # is rounding with room (1e-14 measured on drawn sections).
+    section, ops, run = ten_spans_at_300
+    masts = section.mast_chainage_m
+    stop = analysis_stop_m(masts, 7)
+    assert stop == masts[8]
+    short = run_pantograph(ops, pantographs["reference_2mass"], 300 / 3.6, stop_m=stop)
+    n = short.time_s.size
+    assert 0.75 * run.time_s.size < n < 0.85 * run.time_s.size            # 8 of 10 spans
+    assert short.chainage_m[-1] <= stop < run.chainage_m[n]
+    for name in ("contact_force_n", "support_uplift_m", "head_height_m", "cw_height_m"):
+        assert np.array_equal(getattr(short, name), getattr(run, name)[:n]), name
+    full = contact_statistics(run, masts[3], masts[7], masts).as_dict()
+    stopped = contact_statistics(short, masts[3], masts[7], masts).as_dict()
+    for key, value in full.items():
+        assert stopped[key] == pytest.approx(value, rel=1e-12, abs=1e-15), key
+    assert analysis_stop_m(masts, 10) == masts[10]                       # no span after: the last mast
 
 
 def test_contact_is_lost_with_a_weak_pantograph(catenary, n2, pantographs):

@@ -5,7 +5,8 @@ import pytest
 
 from catenary.correction import CorrectionSettings, correct_spans
 from catenary.errors import ConfigError
-from catenary.model_error.correction import run_shifts
+from catenary.measuring import measuring_pass
+from catenary.model_error.correction import run_shifts, w_shifts
 from catenary.model_error.propagation import Z95
 from catenary.model_error.sources import ModelErrorSettings, Source
 
@@ -66,6 +67,33 @@ def test_linear_shifts_match_a_full_correction_at_the_perturbed_inputs(catenary,
         rms = np.sqrt(np.mean(full ** 2))
         assert rms > 1e-5, name                         # the source moves W
         np.testing.assert_allclose(linear, full, atol=0.1 * np.abs(full).max() + 2 * tolerance_m / 3, err_msg=name)
+
+
+def test_the_budget_reuses_the_corrections_last_pass_as_its_base(catenary, n2, measuring):
+    # The base pass of the budget is the correction's last one (the same model, inputs and
+    # points): reusing it must give what simulating it again gives, bit for bit.
+    spans = measured_run(true_line(catenary, n2), catenary, measuring, "dynamic", 0.005)
+    settings = CorrectionSettings(mode="dynamic", time_step_s=0.005, tolerance_m=1e-3, max_iterations=3,
+                                  quasi_static_start=True)
+    got = []
+    correct_spans(spans, catenary, measuring, settings, after_run=lambda *args: got.append(args))
+    rows, result, panto, speed, direction, profile = got[0]
+    section = result.section
+    points = np.concatenate([section.dropper_chainage_m, section.mast_chainage_m])
+    again = measuring_pass(section, catenary, panto, speed_m_s=speed, mode="dynamic", time_step_s=0.005,
+                           chainage_m=points).height_m
+    assert result.history[-1][0] == "dynamic"
+    assert np.array_equal(result.simulated_height_m, again)
+    sources = [Source("measuring_force", "force_n", std=1.0)]
+    measured = np.ones(len(rows), dtype=bool)
+    reused = w_shifts(section, measured, catenary, panto, speed, sources, mode="dynamic", time_step_s=0.005,
+                      base_height_m=result.simulated_height_m)["measuring_force"]
+    simulated = w_shifts(section, measured, catenary, panto, speed, sources, mode="dynamic",
+                         time_step_s=0.005)["measuring_force"]
+    assert np.array_equal(reused.w_m, simulated.w_m) and reused.passes == simulated.passes
+    with pytest.raises(ValueError, match="base_height_m"):
+        w_shifts(section, measured, catenary, panto, speed, sources, mode="dynamic", time_step_s=0.005,
+                 base_height_m=again[:-1])
 
 
 @pytest.mark.parametrize("block, message", [

@@ -5,6 +5,7 @@
 criteria on the nominal geometry), ``tolerance.csv`` (:func:`.summary.tolerance_table`),
 ``sensitivity.csv`` (Sobol indices; its header only when the sensitivity is skipped),
 ``histograms.png``, ``sobol.png`` (saying so when skipped), ``tolerance.png`` and ``report.md``.
+The figures load Matplotlib when drawn: the batch jobs read only :func:`replicates_schema`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ import pandas as pd
 import pyarrow as pa
 
 from ..parquet import write_table
-from ..plots import plt, save_figure
 from .runs import CRITERIA, VIOLATIONS
 from .sensitivity import SOBOL_COLUMNS, SobolResult
 from .settings import ContactForceSettings
@@ -74,6 +74,7 @@ def _limit_value(criterion: str, speed: float, settings: ContactForceSettings, m
 
 
 def histogram_figure(replicates: pd.DataFrame, nominal: pd.DataFrame, settings: ContactForceSettings, path, title):
+    from ..plots import plt, save_figure
     data = replicates[replicates["case"] == "identified"]
     shown = [c for c in CRITERIA if c != "contact_loss_percent"]
     fig, axes = plt.subplots(2, 4, figsize=(16, 7))
@@ -98,6 +99,7 @@ def histogram_figure(replicates: pd.DataFrame, nominal: pd.DataFrame, settings: 
 
 
 def sobol_figure(results: list[SobolResult], path, title):
+    from ..plots import plt, save_figure
     fig, axes = plt.subplots(1, max(1, len(results)), figsize=(6 * max(1, len(results)), 4), squeeze=False)
     for ax, r in zip(axes[0], results):
         x = np.arange(len(r.groups))
@@ -116,6 +118,7 @@ def sobol_figure(results: list[SobolResult], path, title):
 
 
 def tolerance_figure(table: pd.DataFrame, path, title):
+    from ..plots import plt, save_figure
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for k, (sigma, group) in enumerate(table.groupby("messenger_tension_sigma_n")):
         for j, (name, style) in enumerate((("std_above_limit", "-o"), ("statistical_min_below_limit", "--s"))):
@@ -205,6 +208,7 @@ def write_contact_force(paths: ContactForcePaths, span_type: str, settings: Cont
                         replicates: pd.DataFrame, nominal: pd.DataFrame, summary: pd.DataFrame,
                         tolerance: pd.DataFrame, sobol: list[SobolResult],
                         laws_summary: dict, *, config_hash: str) -> None:
+    from ..plots import plt, save_figure
     for p in paths.__dict__.values():
         Path(p).parent.mkdir(parents=True, exist_ok=True)
     write_table(replicates, paths.replicates, replicates_schema(replicates.columns), config_hash=config_hash,

@@ -3,8 +3,9 @@
 For every replicate of a batch, the section of :func:`.draws.draw_section` is assembled once
 (:class:`~catenary.dynamics.CatenaryDynamics`) and run over at every speed by the pantograph
 (:func:`~catenary.dynamics.run_pantograph`, run-in before the first analysis mast and run-out
-after the last); the statistics over the central spans are those of the dynamics rule
-(:func:`~catenary.contact_statistics.contact_statistics`), and the limits of
+after the last, simulated until one span after the window:
+:func:`~catenary.contact_statistics.analysis_stop_m`); the statistics over the central spans are
+those of the dynamics rule (:func:`~catenary.contact_statistics.contact_statistics`), and the limits of
 :class:`.settings.Limits` say which criteria the section violates. Each row also carries a
 summary of what was drawn: the static geometry in the analysis window
 (:func:`static_features`).
@@ -16,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ..config import Catenary, SpanType
-from ..contact_statistics import contact_statistics
+from ..contact_statistics import analysis_stop_m, contact_statistics
 from ..dynamics import CatenaryDynamics, run_pantograph
 from ..pantograph import Pantograph
 from ..progress import Progress
@@ -90,8 +91,9 @@ def run_section(section: Section, catenary: Catenary, pantograph: Pantograph, se
     masts = section.mast_chainage_m
     first, last = settings.analysis_masts
     rows = []
+    stop = analysis_stop_m(masts, last)             # no step after the window's last span is analysed
     for speed in speeds_kmh:
-        run = run_pantograph(ops, pantograph, speed / 3.6)
+        run = run_pantograph(ops, pantograph, speed / 3.6, stop_m=stop)
         stats = contact_statistics(run, masts[first], masts[last], masts, cutoff_hz=settings.filter_cutoff_hz)
         row = {"speed_kmh": float(speed), **stats.as_dict()}
         row.update(violations(row, speed, settings.limits))

@@ -19,6 +19,8 @@ input group of :mod:`.draws` is driven by one uniform variable of the design tha
 stream; a design row is a section whose groups come from the streams of its uniforms, run
 over at the first speed (``sobol`` batches). With the N of a default run the intervals are
 wide: they are reported, and first plus second order should sum to ≈ 1 within them.
+OpenTURNS is loaded by the two functions that use it, so that the batch jobs of the other cases
+do not pay for it.
 """
 
 from __future__ import annotations
@@ -26,7 +28,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import openturns as ot
 import pandas as pd
 
 from .draws import groups
@@ -38,6 +39,7 @@ __all__ = ["SOBOL_COLUMNS", "SobolResult", "sobol_design", "sobol_indices", "sob
 
 def sobol_design(laws: SectionLaws, settings: ContactForceSettings) -> np.ndarray:
     """The pick-freeze design (rows × groups of uniforms), the same in every job (seeded)."""
+    import openturns as ot
     k = len(groups(laws))
     state = ot.RandomGenerator.GetState()
     try:
@@ -88,6 +90,7 @@ class SobolResult:
 
 
 def _mauntz_kucherenko(design: np.ndarray, values: np.ndarray, n_base: int):
+    import openturns as ot
     alg = ot.MauntzKucherenkoSensitivityAlgorithm(ot.Sample(design), ot.Sample(values.reshape(-1, 1)), n_base)
     return (np.array(alg.getFirstOrderIndices()), np.array(alg.getTotalOrderIndices()),
             np.array(alg.getSecondOrderIndices()))

@@ -105,7 +105,8 @@ class Shift:
 def w_shifts(section: Section, measured: np.ndarray, catenary: Catenary, pantograph: Pantograph,
              speed_m_s: float, sources: Sequence[Source], *, mode: str, time_step_s: float, direction: int = 1,
              speed_profile: tuple[np.ndarray, np.ndarray] | None = None, k: float = 1.0,
-             tolerance_m: float = 5e-6, max_passes: int = 8, memory: int = 3) -> dict[str, Shift]:
+             tolerance_m: float = 5e-6, max_passes: int = 8, memory: int = 3,
+             base_height_m: np.ndarray | None = None) -> dict[str, Shift]:
     """Shift of the corrected static W of every dropper when each source moves by ``k`` standard
     uncertainties (module docstring).
 
@@ -130,6 +131,10 @@ def w_shifts(section: Section, measured: np.ndarray, catenary: Catenary, pantogr
         Largest number of moves of the model per source.
     memory : int
         Past passes mixed into each move (:func:`_anderson_step`; 0: the correction's plain step).
+    base_height_m : numpy.ndarray, optional
+        The base pass over ``section`` with the correction's inputs, at its droppers then its
+        masts [m], if the caller has it (the correction's last pass:
+        :attr:`catenary.correction.RunCorrection.simulated_height_m`); simulated otherwise.
 
     Returns
     -------
@@ -168,7 +173,10 @@ def w_shifts(section: Section, measured: np.ndarray, catenary: Catenary, pantogr
         return measuring_pass(model, cat, panto, speed_m_s=speed, mode=mode, time_step_s=time_step_s,
                               chainage_m=points, **kwargs).height_m
 
-    base = simulate_over(section, pantograph, catenary, speed_m_s)
+    base = (simulate_over(section, pantograph, catenary, speed_m_s) if base_height_m is None
+            else np.asarray(base_height_m, dtype=float))
+    if base.shape != points.shape:
+        raise ValueError(f"base_height_m: expected {points.size} heights (droppers, then masts), got {base.shape}")
     base_w = _static_w(section, catenary)
     targets = StaticModel(section, catenary).solve().cw_height_at(section.cw_clamp_chainage_m)
     out = {}
@@ -254,9 +262,13 @@ def run_shifts(rows: pd.DataFrame, result, catenary: Catenary, pantograph: Panto
     if result.section is None or result.failure:
         failed = f"not measured: the correction failed on this run ({result.failure})"
     else:
+        # the correction's last pass is the base pass when it ran in this mode (same model, inputs
+        # and points): one dynamic pass saved per run, the same heights bit for bit
+        last_mode = result.history[-1][0] if result.history else None
         try:
             shifts = w_shifts(result.section, measured, catenary, pantograph, speed_m_s, sources, mode=mode,
-                              time_step_s=time_step_s, direction=direction, speed_profile=speed_profile)
+                              time_step_s=time_step_s, direction=direction, speed_profile=speed_profile,
+                              base_height_m=result.simulated_height_m if last_mode == mode else None)
         except ConvergenceError as exc:
             failed = f"not measured: a perturbed pass did not converge ({exc})"
     dropper_span = result.section.dropper_span if shifts else np.repeat(np.arange(len(rows)), n_max)
