@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from catenary.identification.likelihood import GaussianFit, LikelihoodValue
-from catenary.identification.scoring import MAX_MOVE, fisher_scoring
+from catenary.identification.scoring import MAX_MOVE, STEP, fisher_scoring
 
 
 class MeanShift:
@@ -78,3 +78,28 @@ def test_a_scoring_whose_steps_leave_the_models_domain_climbs_to_its_edge_inside
     assert r.theta[0] <= 7.5 and np.isfinite(r.j)
     assert r.theta[0] > 6.5, (r.theta, r.message)                  # climbed most of the way to the edge
     assert r.j > start
+
+
+def test_a_coordinate_at_the_domains_edge_is_held_and_the_maximum_along_it_certified(far_maximum):
+    # The same edge θ₁ = 7.5. Once θ₁'s difference step crosses it against a gradient pointing
+    # beyond, θ₁ is held (as on a bound) and θ₂ climbs at full steps: the scoring certifies the
+    # maximum along the edge — θ₂ the least-squares optimum with θ₁ where it was held, θ₁ within
+    # a difference step (STEP) of the edge. Without the hold every step shrinks against the edge
+    # and twelve iterations do not certify (checked).
+    problem, _ = far_maximum
+    inner = problem.evaluate
+
+    def evaluate(theta):
+        if theta[0] > 7.5:
+            problem.n_evaluations += 1
+            return LikelihoodValue(-np.inf, np.nan, 0.0, "out_of_domain")
+        return inner(theta)
+
+    problem.evaluate = evaluate
+    lo, hi = np.full(2, -50.0), np.full(2, 50.0)
+    r = fisher_scoring(problem, np.zeros(2), lo, hi, np.zeros(2, dtype=bool), ftol=1e-3, max_iterations=12)
+    assert r.certified, r.message
+    assert 7.5 - STEP <= r.theta[0] <= 7.5
+    a, w = problem.a, problem.likelihood.data_w_m.mean(axis=0)
+    theta2 = np.linalg.lstsq(a[:, 1:], w - a[:, 0] * r.theta[0], rcond=None)[0][0]
+    assert r.theta[1] == pytest.approx(theta2, abs=1e-6)          # J quadratic: exact up to rounding

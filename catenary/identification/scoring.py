@@ -22,8 +22,17 @@ there.
 The radius r (1 at the start) is a trust region: it doubles, up to 16, after a step that was cut
 by it and gained more than ¾ of what the quadratic model predicted, halves (down to 1/64)
 after one that gained less than ¼, and shrinks by 4 where a trial step leaves the model's
-domain (J not finite: a T_CW spread beyond the tensions the model was built for), where more
-damping would not shorten a move held at its cap. On the default campaign (2026-11-26) the
+domain (J not finite: a T_CW spread beyond the tensions the model was built for, CW offsets
+beyond the tabulated ones), where more damping would not shorten a move held at its cap. A
+coordinate whose difference step leaves the domain in the direction its gradient points is
+at the domain's edge and is held there, as one on its bound: the others then climb at full
+steps instead of every step shrinking against the edge, and the maximum along the edge is
+certified within a difference step of it (J within ``STEP`` × the gradient there). On the
+default campaign (2026-11-27) the CW offset's refit at step 1, whose spread runs to its bound
+and whose mean to where the design's lowest score reaches the tabulated −0.5 m, crawled with
+the radius shrinking by 4 then doubling at every iteration (J 4 510 after 12, Nelder–Mead
+after it reaching 4 566.37 in 1 536 evaluations in all); holding the mean at the edge it
+reached J 4 566.00 at iteration 12 (742 evaluations in all, the same Δℓ within 0.02). On the default campaign (2026-11-26) the
 doubling let the CW wear's refit walk its mean fraction 8 caps from the null, to its bound, and
 its spread's variance 4 caps: N2's refit was certified after 10 iterations (277 evaluations, J
 0.03 above Nelder–Mead's after 1 973), where the fixed cap crawled and handed over. Where r
@@ -180,6 +189,7 @@ def fisher_scoring(problem, theta0: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
             return result(False, f"evaluation budget reached after {iteration - 1} iterations")
         moments, widths, gradient = [], [], np.zeros(x.size)
         usable = np.ones(x.size, dtype=bool)
+        edge_up, edge_down = np.zeros(x.size, dtype=bool), np.zeros(x.size, dtype=bool)
         for i in range(x.size):
             up, down = x.copy(), x.copy()
             up[i] = min(x[i] + steps[i], xhi[i])
@@ -188,8 +198,10 @@ def fisher_scoring(problem, theta0: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
             v_down = problem.evaluate(theta_of(down)) if down[i] < x[i] else current
             if v_up.fit is None:                 # J not finite on one side: one-sided on the other
                 v_up, up = current, x
+                edge_up[i] = True
             if v_down.fit is None:
                 v_down, down = current, x
+                edge_down[i] = True
             width = up[i] - down[i]
             if width <= 0.0:                     # neither side finite: this coordinate stays put
                 usable[i] = False
@@ -200,8 +212,10 @@ def fisher_scoring(problem, theta0: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
             widths.append(width)
             gradient[i] = (v_up.j - v_down.j) / width
         info = expected_information(moments, widths, n_spans, gaussian_moments(current))
-        # A coordinate on its bound whose gradient points out of the box stays there.
+        # A coordinate on its bound whose gradient points out of the box stays there; so does one
+        # within a difference step of the model's domain edge, its gradient pointing beyond it.
         free = usable & ~((x <= xlo) & (gradient < 0.0)) & ~((x >= xhi) & (gradient > 0.0))
+        free &= ~(edge_down & (gradient < 0.0)) & ~(edge_up & (gradient > 0.0))
         seen = usable & (np.diag(info) > 0.0)
         free &= seen
         if not free.any():
