@@ -162,6 +162,18 @@ class CatenaryDynamics:
             c, _ = beam.exact_basis_matrix(unique[:, 0], unique[:, 1])
             self._basis_inverse = np.linalg.inv(c)[inverse.ravel()]
 
+        self._solvers: dict[tuple[float, float], PseudoForceSolver] = {}
+
+    def solver(self, mass_factor: float = 0.0, damping_factor: float = 0.0) -> "PseudoForceSolver":
+        """The :class:`PseudoForceSolver` of ``K₀ + mass_factor·M + damping_factor·C`` (both 0: the
+        static one), factorised once per pair and kept: the runs over a section at several speeds
+        with one time step share their static and their Newmark matrices."""
+        key = (float(mass_factor), float(damping_factor))
+        if key not in self._solvers:
+            k = self.k0 if key == (0.0, 0.0) else self.k0 + key[0] * self.mass + key[1] * self.damping
+            self._solvers[key] = PseudoForceSolver(self, k)
+        return self._solvers[key]
+
     def contact_vector(self, chainage_m: float) -> tuple[np.ndarray, np.ndarray]:
         """Free-DOF indices and exact shape-function values of the CW at ``chainage_m``."""
         x_nodes = self.mesh.x_m
@@ -298,7 +310,7 @@ def quasi_static_heights(ops: CatenaryDynamics, chainage_m: np.ndarray, force_n:
     """CW height under an upward point force ``force_n`` [N] (one, or one per point) at each
     chainage, each a static solve of the same catenary (dropper slackening and steady arms
     included) [m]."""
-    solver = PseudoForceSolver(ops, ops.k0)
+    solver = ops.solver()
     slack = np.zeros(ops.dropper_k.size, dtype=bool)
     out = np.empty(len(chainage_m))
     forces = np.broadcast_to(np.asarray(force_n, dtype=float), out.shape)
@@ -464,7 +476,7 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
     k_c = settings.contact_stiffness_n_m
 
     # Initial static equilibrium of catenary and pantograph at the start.
-    static_solver = PseudoForceSolver(ops, ops.k0)
+    static_solver = ops.solver()
     reference = float(np.mean(ops.gravity_state.cw_height_at(np.linspace(start, end, 201))))
     u, slack, f0, head0 = _initial_equilibrium(ops, static_solver, pantograph, start, f_start, reference, k_c)
     v = np.zeros_like(u)
@@ -484,7 +496,7 @@ def run_pantograph(ops: CatenaryDynamics, pantograph: Pantograph, speed_m_s: flo
         y = np.linalg.solve(k_p, e_h * (f_start - f0))
     yv, ya = np.zeros_like(y), np.zeros_like(y)
 
-    solver = PseudoForceSolver(ops, ops.k0 + a0 * ops.mass + a1 * ops.damping)
+    solver = ops.solver(a0, a1)
     mast_dofs = ops.index[DOFS_PER_NODE * ops.mesh.mast_nodes + CW]
     static_mast = ops.gravity_state.cw_height_m[ops.mesh.mast_nodes]
     out = {k: np.empty(n_steps) for k in ("f", "w", "head", "slack")}
@@ -525,10 +537,10 @@ def free_vibration(ops: CatenaryDynamics, initial_velocity: np.ndarray, duration
     a0, a1 = 1 / (beta * dt**2), gamma / (beta * dt)
     a2, a3 = 1 / (beta * dt), 1 / (2 * beta) - 1
     a4, a5 = gamma / beta - 1, dt / 2 * (gamma / beta - 2)
-    static_solver = PseudoForceSolver(ops, ops.k0)
+    static_solver = ops.solver()
     no_slack = np.zeros(ops.dropper_k.size, dtype=bool)
     u0, _, slack, _, _ = static_solver.equilibrium(ops.f_const, no_slack)
-    solver = PseudoForceSolver(ops, ops.k0 + a0 * ops.mass + a1 * ops.damping)
+    solver = ops.solver(a0, a1)
     u, v = u0.copy(), np.asarray(initial_velocity, dtype=float).copy()
     acc = sp.linalg.spsolve(ops.mass.tocsc(), -(ops.damping @ v))  # K₀(u − u₀) = 0 at start
     n_steps = int(round(duration_s / dt)) + 1

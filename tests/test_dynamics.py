@@ -150,6 +150,23 @@ def test_a_run_stopped_a_span_after_the_window_has_the_same_statistics(ten_spans
     assert analysis_stop_m(masts, 10) == masts[10]                       # no span after: the last mast
 
 
+def test_runs_sharing_a_sections_factorised_matrices_equal_runs_on_fresh_ones(catenary, n2, pantographs):
+    # CatenaryDynamics.solver keeps each factorised matrix for the section's later runs: a run
+    # after others at another speed must be the run on a freshly assembled section, bit for bit
+    # (no state of an earlier run may leak into a later one).
+    rng = np.random.default_rng(5)
+    section = uniform_section(n2, 4, nominal_dropper_lengths(n2, catenary).dropper_lengths_m)
+    section = section.with_dropper_lengths(section.dropper_lengths_m + rng.normal(0.0, 0.01, section.dropper_lengths_m.size))
+    shared = CatenaryDynamics(section, catenary)
+    panto = pantographs["reference_2mass"]
+    runs = [run_pantograph(shared, panto, v / 3.6) for v in (300.0, 320.0, 300.0)]
+    assert len(shared._solvers) == 2                                     # static and Newmark, once each
+    for run, v in zip(runs, (300.0, 320.0, 300.0)):
+        fresh = run_pantograph(CatenaryDynamics(section, catenary), panto, v / 3.6)
+        for name in ("contact_force_n", "support_uplift_m", "head_height_m", "slack_droppers"):
+            assert np.array_equal(getattr(run, name), getattr(fresh, name)), (v, name)
+
+
 def test_contact_is_lost_with_a_weak_pantograph(catenary, n2, pantographs):
     section = uniform_section(n2, 4, nominal_dropper_lengths(n2, catenary).dropper_lengths_m)
     weak = pantographs["reference_2mass"].with_static_force(15.0)
