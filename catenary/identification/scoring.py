@@ -23,20 +23,22 @@ The radius r (1 at the start) is a trust region: it doubles, up to 16, after a s
 by it and gained more than ¾ of what the quadratic model predicted, halves (down to 1/64)
 after one that gained less than ¼, and shrinks by 4 where a trial step leaves the model's
 domain (J not finite: a T_CW spread beyond the tensions the model was built for, CW offsets
-beyond the tabulated ones), where more damping would not shorten a move held at its cap. A
-coordinate whose difference step leaves the domain in the direction its gradient points is
-at the domain's edge and is held there, as one on its bound: the others then climb at full
-steps instead of every step shrinking against the edge, and the maximum along the edge is
-certified within a difference step of it (J within ``STEP`` × the gradient there). On the
-default campaign (2026-11-27) the CW offset's refit at step 1, whose spread runs to its bound
-and whose mean to where the design's lowest score reaches the tabulated −0.5 m, crawled with
-the radius shrinking by 4 then doubling at every iteration (J 4 510 after 12, Nelder–Mead
-after it reaching 4 566.37 in 1 536 evaluations in all); holding the mean at the edge it
-reached J 4 566.00 at iteration 12 (742 evaluations in all, the same Δℓ within 0.02). On the default campaign (2026-11-26) the
-doubling let the CW wear's refit walk its mean fraction 8 caps from the null, to its bound, and
-its spread's variance 4 caps: N2's refit was certified after 10 iterations (277 evaluations, J
-0.03 above Nelder–Mead's after 1 973), where the fixed cap crawled and handed over. Where r
-stays 1, the iterations are those of the fixed cap.
+beyond the tabulated ones), where more damping would not shorten a move held at its cap. On the
+default campaign (2026-11-26) the doubling let the CW wear's refit walk its mean fraction 8 caps
+from the null, to its bound, and its spread's variance 4 caps: N2's refit was certified after 10
+iterations (277 evaluations, J 0.03 above Nelder–Mead's after 1 973), where the fixed cap
+crawled and handed over. Where r stays 1, the iterations are those of the fixed cap.
+
+A coordinate whose difference step leaves the domain in the direction its gradient points is at
+the domain's edge and is held there, as one on its bound whose gradient points out of the box:
+the others then climb at full steps instead of every step shrinking against the edge, and the
+maximum along the edge is certified within a difference step of it (J within ``STEP`` × the
+gradient there). On the default campaign (2026-11-27) the CW offset's refit at step 1, whose
+spread runs to its bound and whose mean to where the design's lowest score reaches the
+tabulated −0.5 m, crawled with the radius shrinking by 4 then doubling at every iteration (J
+4 510 after 12, Nelder–Mead after it reaching 4 566.37 in 1 536 evaluations in all); holding
+the mean at the edge it reached J 4 566.00 at iteration 12 (742 evaluations in all, Δℓ 0.016
+higher).
 
 Where the model fits the data the scoring step is nearly Newton's and converges in a few
 iterations: on the default campaign's N2 (117 spans, N = 10⁴) the named T_MW spread's refit
