@@ -29,6 +29,20 @@ class MeanShift:
         return LikelihoodValue(float(logp.sum()), 0.0, 1e4, "ok", logp, fit)
 
 
+def with_edge(problem: MeanShift, edge: float) -> None:
+    """Make ``problem``'s J not finite beyond θ₁ = ``edge`` (a model without a law there, as T_CW
+    spreads beyond the built tension range or CW offsets beyond the tabulated ones)."""
+    inner = problem.evaluate
+
+    def evaluate(theta):
+        if theta[0] > edge:
+            problem.n_evaluations += 1
+            return LikelihoodValue(-np.inf, np.nan, 0.0, "out_of_domain")
+        return inner(theta)
+
+    problem.evaluate = evaluate
+
+
 @pytest.fixture
 def far_maximum():
     rng = np.random.default_rng(3)
@@ -63,15 +77,7 @@ def test_a_scoring_whose_steps_leave_the_models_domain_climbs_to_its_edge_inside
     # still climb towards the edge and never report a point outside. (A fixed cap of 1, which
     # never overshoots here, passes too: this guards the radius, it does not tell it apart.)
     problem, theta_hat = far_maximum
-    inner = problem.evaluate
-
-    def evaluate(theta):
-        if theta[0] > 7.5:
-            problem.n_evaluations += 1
-            return LikelihoodValue(-np.inf, np.nan, 0.0, "tension_out_of_bounds")
-        return inner(theta)
-
-    problem.evaluate = evaluate
+    with_edge(problem, 7.5)
     lo, hi = np.full(2, -50.0), np.full(2, 50.0)
     start = problem.evaluate(np.zeros(2)).j
     r = fisher_scoring(problem, np.zeros(2), lo, hi, np.zeros(2, dtype=bool), ftol=1e-3, max_iterations=12)
@@ -87,15 +93,7 @@ def test_a_coordinate_at_the_domains_edge_is_held_and_the_maximum_along_it_certi
     # a difference step (STEP) of the edge. Without the hold every step shrinks against the edge
     # and twelve iterations do not certify (checked).
     problem, _ = far_maximum
-    inner = problem.evaluate
-
-    def evaluate(theta):
-        if theta[0] > 7.5:
-            problem.n_evaluations += 1
-            return LikelihoodValue(-np.inf, np.nan, 0.0, "out_of_domain")
-        return inner(theta)
-
-    problem.evaluate = evaluate
+    with_edge(problem, 7.5)
     lo, hi = np.full(2, -50.0), np.full(2, 50.0)
     r = fisher_scoring(problem, np.zeros(2), lo, hi, np.zeros(2, dtype=bool), ftol=1e-3, max_iterations=12)
     assert r.certified, r.message
