@@ -37,9 +37,8 @@ RECORDING = ("r_table", "r_stagger", "r_no_table", "r_height_no_table", "r_exact
 #: Measured by another car than the correction's model (issue [13]): correction, identification
 #: (statistical and total intervals) and diagnosis against the truth.
 MODEL_ERROR = ("m_car", "m_force", "m_panto", "m_speed")
-#: Droppers planted out of tolerance, and a line long enough to test coverage per input (issue [14]): the
-#: per-span posteriors and the maintenance list
-#: against the truth (identification too, as the prior).
+#: Droppers planted out of tolerance, and a line long enough to test coverage input by input (issue [14]):
+#: the per-span posteriors and the maintenance list against the truth (identification too, as the prior).
 MAINTENANCE = ("p_faults", "p_coverage")
 #: Campaigns whose projection must refuse every span (registration off on a drifting odometer).
 REFUSED = ("r_off",)
