@@ -231,7 +231,8 @@ def test_two_faulty_droppers_of_one_span_are_both_listed(table2_prior):
     # second fault too — every faulty dropper reads P(out of ±1 cm) > 0.5 (measured: all 98, the
     # lowest 0.70; without the fault component some read less) and no other dropper of those
     # spans does (measured: the highest 0.24). Their posteriors are harder to sample than one
-    # fault's: 13 of the 49 spans say so in their status (docs/maintenance.md, *Not yet*).
+    # fault's where a dropper is near slack: 13 of the 49 spans say so in their status
+    # (docs/maintenance.md, *Not yet*).
     prior = dataclasses.replace(table2_prior, fault_probability=0.01, fault_std_m=0.03)
     means = prior.means
     cases = [{a: oa, b: ob} for a, b in itertools.combinations(range(9), 2)
