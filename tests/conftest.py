@@ -63,3 +63,19 @@ def truth(catenary, n2):
     means[9], means[10] = TABLE2_MESSENGER_TENSION_N[0], TABLE2_SYSTEM_HEIGHT_M[0]
     sigmas = np.r_[TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N[1], TABLE2_SYSTEM_HEIGHT_M[1]]
     return means, sigmas
+
+
+def identify_line(span_type, catenary, w_m, mast_pairs, settings):
+    """Identify a replicate line's W as the rule does (its settings' design, N and neighbours,
+    sandwich standard errors over the spans that share a mast), without profiles: the
+    likelihood, the start and the result."""
+    from catenary.identification.fit import identify, make_likelihood
+
+    start = settings.start_inputs(span_type, catenary)
+    lik = make_likelihood(span_type, catenary, w_m, start=start, n_samples=settings.n_samples,
+                          design_method=settings.design, seed=settings.seed,
+                          system_height_mode=settings.system_height_mode, neighbours=settings.neighbours)
+    n = span_type.n_droppers
+    result = identify(lik, start, free_means=settings.free_mean_names(n), free_sigmas=settings.random_names(n),
+                      mast_pairs=mast_pairs, covariance="sandwich")
+    return lik, start, result

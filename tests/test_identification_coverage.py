@@ -23,7 +23,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
-from .conftest import ROOT
+from .conftest import ROOT, identify_line
 
 N_REPLICATES = 30
 N_SAMPLES = 2000
@@ -35,7 +35,6 @@ def _replicate(kind: str, seed: int) -> dict:
     """Identify one replicate line (kind ``campaign``: the default truth; ``null``: the same
     without any hidden effect, so T_MW has no spread at all)."""
     from catenary.config import load_catenary
-    from catenary.identification.fit import identify, make_likelihood
     from catenary.identification.profile import profile_intervals
     from catenary.identification.settings import IdentificationSettings
     from catenary.identification.synthetic import line_deflections
@@ -47,14 +46,8 @@ def _replicate(kind: str, seed: int) -> dict:
         spec = dataclasses.replace(spec, hidden_effects=[])
     span_type = catenary.span_type(SPAN_TYPE)
     settings = IdentificationSettings.from_mapping({"n_samples": N_SAMPLES})
-    start = settings.start_inputs(span_type, catenary)
     line = line_deflections(spec, catenary, SPAN_TYPE, seed=seed)
-    lik = make_likelihood(span_type, catenary, line.w_m, start=start, n_samples=settings.n_samples,
-                          design_method=settings.design, seed=settings.seed,
-                          system_height_mode=settings.system_height_mode, neighbours=settings.neighbours)
-    n = span_type.n_droppers
-    result = identify(lik, start, free_means=settings.free_mean_names(n), free_sigmas=settings.random_names(n),
-                      mast_pairs=line.mast_pairs, covariance="sandwich")
+    lik, start, result = identify_line(span_type, catenary, line.w_m, line.mast_pairs, settings)
     out = {"seed": seed, "status": result.status}
     if result.status != "ok":
         return out

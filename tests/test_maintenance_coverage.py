@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from .conftest import ROOT
+from .conftest import ROOT, identify_line
 
 N_REPLICATES = 16
 N_SAMPLES = 2000
@@ -57,7 +57,6 @@ def _coverage(post, truth: pd.DataFrame) -> dict:
 
 def _replicate(seed: int) -> dict:
     from catenary.config import load_catenary
-    from catenary.identification.fit import identify, make_likelihood
     from catenary.identification.settings import IdentificationSettings
     from catenary.identification.synthetic import line_deflections
     from catenary.maintenance.posterior import span_posteriors
@@ -68,16 +67,11 @@ def _replicate(seed: int) -> dict:
     spec = load_truth(ROOT / "config" / "campaign.yaml", catenary)
     span_type = catenary.span_type(SPAN_TYPE)
     settings = IdentificationSettings.from_mapping({"n_samples": N_SAMPLES})
-    start = settings.start_inputs(span_type, catenary)
     line = line_deflections(spec, catenary, SPAN_TYPE, seed=seed)
     rng = np.random.default_rng(seed)
     w = line.w_m + NOISE_M * rng.standard_normal(line.w_m.shape)
-    lik = make_likelihood(span_type, catenary, w, start=start, n_samples=settings.n_samples,
-                          design_method=settings.design, seed=settings.seed,
-                          system_height_mode=settings.system_height_mode, neighbours=settings.neighbours)
     n = span_type.n_droppers
-    result = identify(lik, start, free_means=settings.free_mean_names(n), free_sigmas=settings.random_names(n),
-                      mast_pairs=line.mast_pairs, covariance="sandwich")
+    _, _, result = identify_line(span_type, catenary, w, line.mast_pairs, settings)
     out = {"seed": seed, "status": result.status}
     if result.status != "ok":
         return out
