@@ -65,6 +65,16 @@ def truth(catenary, n2):
     return means, sigmas
 
 
+def population_laws(spec, span_type: str) -> dict[str, tuple[float, float]]:
+    """The laws a campaign's spans are drawn from: T_MW's mean and σ (the section's and the
+    per-span ``messenger_tension_variability`` in quadrature) and ΔH's, by parameter name."""
+    tension = spec.messenger_tension[span_type]
+    spread = dict(spec.hidden_effects).get("messenger_tension_variability", {}).get("std_n", 0.0)
+    height = spec.system_height[span_type]
+    return {"messenger_tension_n": (tension.mean, float(np.hypot(tension.std, spread))),
+            "system_height_m": (height.mean, height.std)}
+
+
 def identify_line(span_type, catenary, w_m, mast_pairs, settings):
     """Identify a replicate line's W as the rule does (its settings' design, N and neighbours,
     sandwich standard errors over the spans that share a mast), without profiles: the

@@ -23,7 +23,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
-from .conftest import ROOT, identify_line
+from .conftest import ROOT, identify_line, population_laws
 
 N_REPLICATES = 30
 N_SAMPLES = 2000
@@ -75,12 +75,8 @@ def test_intervals_cover_the_truth_on_section_replicates(catenary):
     from catenary.truth import load_truth
 
     spec = load_truth(ROOT / "config" / "campaign.yaml", catenary)
-    tension = spec.messenger_tension[SPAN_TYPE]
-    effect = dict(spec.hidden_effects)["messenger_tension_variability"]
-    truth = {"messenger_tension_n.mu": tension.mean,
-             "messenger_tension_n.sigma": float(np.hypot(tension.std, effect["std_n"])),
-             "system_height_m.mu": spec.system_height[SPAN_TYPE].mean,
-             "system_height_m.sigma": spec.system_height[SPAN_TYPE].std}
+    truth = {f"{name}.{statistic}": value for name, law in population_laws(spec, SPAN_TYPE).items()
+             for statistic, value in zip(("mu", "sigma"), law)}
     rows = _run("campaign")
     assert all(r["status"] == "ok" for r in rows), [r for r in rows if r["status"] != "ok"]
     report = []

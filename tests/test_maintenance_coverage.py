@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from .conftest import ROOT, identify_line
+from .conftest import ROOT, identify_line, population_laws
 
 N_REPLICATES = 16
 N_SAMPLES = 2000
@@ -36,14 +36,10 @@ def _true_s_opt(spec, catenary, span_type) -> pd.DataFrame:
     st = catenary.span_type(span_type)
     lengths = nominal_dropper_lengths(st, catenary).dropper_lengths_m
     dropper_std = np.broadcast_to(spec.dropper_laws[span_type][1], lengths.shape)
-    tension = spec.messenger_tension[span_type]
-    spread = [p.get("std_n", 0.0) for name, p in spec.hidden_effects if name == "messenger_tension_variability"]
-    tension_std = float(np.hypot(tension.std, sum(spread)))
-    height = spec.system_height[span_type]
     rows = [{"parameter": f"dropper_{i + 1}_length_m", "mu": m, "sigma": s} for i, (m, s) in
             enumerate(zip(lengths, dropper_std))]
-    rows += [{"parameter": "messenger_tension_n", "mu": tension.mean, "sigma": tension_std},
-             {"parameter": "system_height_m", "mu": height.mean, "sigma": height.std}]
+    rows += [{"parameter": name, "mu": mu, "sigma": sigma}
+             for name, (mu, sigma) in population_laws(spec, span_type).items()]
     return pd.DataFrame(rows)
 
 
