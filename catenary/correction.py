@@ -71,6 +71,9 @@ from .static import StaticModel
 #: Largest mismatch [m] between the end of a span and the start of the next for them to be
 #: modelled as one run of consecutive spans (the projection copies the masts' chainages).
 CONTIGUITY_TOLERANCE_M = 1e-6
+#: Columns of the corrected profiles (:func:`correct_spans`; ``results/{span_type}/corrected_profiles.parquet``):
+#: per measured sample, its height, the final model's simulated pass and its static CW height [m].
+PROFILE_COLUMNS = ("span_id", "run_id", "x_m", "height_m", "simulated_height_m", "static_height_m")
 
 
 @dataclass(frozen=True)
@@ -152,6 +155,10 @@ class RunCorrection:
     simulated_height_m : numpy.ndarray or None
         The last simulated pass, over the final model: CW heights at the run's droppers, then
         at its masts [m] (None when the run failed); the model-error budget's base pass.
+    profile_simulated_m, profile_static_m : numpy.ndarray or None
+        At the run's profile chainages (``correct_run``'s ``profile_chainage_m``): the final
+        model's simulated measuring pass and its static CW height [m] (None without profile
+        chainages or when the run failed).
     """
 
     span_id: np.ndarray
@@ -164,6 +171,8 @@ class RunCorrection:
     slack_droppers: np.ndarray | None = None
     section: Section | None = None
     simulated_height_m: np.ndarray | None = None
+    profile_simulated_m: np.ndarray | None = None
+    profile_static_m: np.ndarray | None = None
 
 
 def fill_unmeasured(rows: pd.DataFrame, report: pd.DataFrame, catenary: Catenary) -> pd.DataFrame:
@@ -269,7 +278,8 @@ def run_section(rows: pd.DataFrame, catenary: Catenary, dropper_lengths_m: np.nd
 
 def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, speed_m_s: float,
                 settings: CorrectionSettings, log=None, *, direction: int = 1,
-                speed_profile: tuple[np.ndarray, np.ndarray] | None = None) -> RunCorrection:
+                speed_profile: tuple[np.ndarray, np.ndarray] | None = None,
+                profile_chainage_m: np.ndarray | None = None) -> RunCorrection:
     """Correct one run of consecutive spans (module docstring).
 
     Parameters
@@ -290,6 +300,11 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
         +1: the car ran towards increasing chainage; -1: towards decreasing.
     speed_profile : (numpy.ndarray, numpy.ndarray), optional
         Speed [m/s] along the run of spans, at chainages from its first mast [m].
+    profile_chainage_m : numpy.ndarray, optional
+        Chainages from the run's first mast [m] (the recorded samples between the droppers)
+        at which the final model's simulated pass and static CW height are returned too: a
+        dynamic pass reports them at no extra cost (they are read off the same run); after a
+        quasi-static last pass they cost one static solve each.
 
     Returns
     -------
@@ -307,6 +322,8 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
     on_measured_d = measured[section.dropper_span]
     on_measured_m = np.r_[measured, False] | np.r_[False, measured]
     points = np.concatenate([section.dropper_chainage_m, section.mast_chainage_m])
+    n_points = points.size
+    profile_x = np.zeros(0) if profile_chainage_m is None else np.asarray(profile_chainage_m, dtype=float)
     static_d = measured_d.copy()       # first guess: the measurement is static
     history: list[tuple[str, np.ndarray]] = []
     empty = np.full((len(rows), n_d.max()), np.nan)
@@ -330,10 +347,13 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
                     static_d = static_d + gap_d
                 inverse = dropper_lengths_for_cw_heights(section, catenary, static_d, allow_slack=True)
                 section = inverse.section
+                # a dynamic pass reports the profile's chainages too (read off the same run)
+                at = np.concatenate([points, profile_x]) if mode == "dynamic" else points
                 simulated = measuring_pass(section, catenary, pantograph, speed_m_s=speed_m_s, mode=mode,
-                                           time_step_s=settings.time_step_s, chainage_m=points, **run_kwargs).height_m
+                                           time_step_s=settings.time_step_s, chainage_m=at, **run_kwargs).height_m
+                last_mode = mode
                 gap_d = np.where(on_measured_d, measured_d - simulated[:measured_d.size], 0.0)
-                gap_m = np.where(on_measured_m, measured_m - simulated[measured_d.size:], 0.0)
+                gap_m = np.where(on_measured_m, measured_m - simulated[measured_d.size:n_points], 0.0)
                 gap_w = gap_d - section.chord_at_droppers(gap_m)
                 norms = np.sqrt(np.bincount(section.dropper_span, gap_w ** 2, minlength=len(rows)))
                 norms[~measured] = 0.0
@@ -343,20 +363,27 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
                                 f"{1e3 * tolerance:.2f} mm")
                 if np.all(norms[measured] < tolerance):
                     break
+        profile_simulated = None
+        if profile_chainage_m is not None:
+            profile_simulated = (simulated[n_points:] if last_mode == "dynamic" else measuring_pass(
+                section, catenary, pantograph, speed_m_s=speed_m_s, mode=last_mode,
+                time_step_s=settings.time_step_s, chainage_m=profile_x, **run_kwargs).height_m)
+        # Static W of the last simulated model (at slack droppers the CW hangs below its target).
+        solution = StaticModel(section, catenary).solve()
     except ConvergenceError as exc:
         # Only a solver that did not settle is a property of this run; a ConfigError, an
         # InputError or a programming error propagates and stops the rule.
         return RunCorrection(span_ids, empty, np.full(len(rows), np.nan), _passes(history, settings.mode),
                              history, failure=f"a solver did not converge on this run ({exc})")
-    # Static W of the last simulated model (at slack droppers the CW hangs below its target).
-    w = StaticModel(section, catenary).solve().dropper_deflection_m()
+    w = solution.dropper_deflection_m()
     static_w = empty.copy()
     for k in range(len(rows)):
         static_w[k, :n_d[k]] = w[section.dropper_span == k]
     slack = np.bincount(section.dropper_span, inverse.slack, minlength=len(rows)).astype(int)
     return RunCorrection(span_ids, static_w, history[-1][1], _passes(history, settings.mode), history,
                          section.dropper_lengths_m, slack_droppers=slack, section=section,
-                         simulated_height_m=simulated)
+                         simulated_height_m=simulated[:n_points], profile_simulated_m=profile_simulated,
+                         profile_static_m=None if profile_chainage_m is None else solution.cw_height_at(profile_x))
 
 
 def measured_residuals(rows: pd.DataFrame, result: RunCorrection, common_w_m: np.ndarray, catenary: Catenary,
@@ -472,7 +499,8 @@ CORRECTED_BASE_COLUMNS = ["span_id", "run_id", "direction", "speed_kmh", "force_
 
 def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograph,
                   settings: CorrectionSettings, log=None, report: pd.DataFrame | None = None,
-                  after_run=None) -> tuple[pd.DataFrame, pd.DataFrame]:
+                  after_run=None, profiles: pd.DataFrame | None = None
+                  ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """Correct every run of consecutive spans in ``spans`` (module docstring).
 
     Parameters
@@ -492,6 +520,10 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
         Called after each run of spans as ``after_run(rows, result, pantograph, speed_m_s,
         direction, speed_profile)`` with the run's :class:`RunCorrection` and measuring conditions
         (the model-error budget perturbs its converged model).
+    profiles : pandas.DataFrame, optional
+        The measured profiles of the spans (the projection's ``profiles.parquet`` rows:
+        ``span_id``, ``run_id``, ``x_m``, ``height_m``): each run's final model is read at their
+        chainages too.
 
     Returns
     -------
@@ -501,6 +533,11 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
         span), ``iterations``, ``gap_norm_m``, ``converged`` and ``reason`` (empty when converged).
     convergence : pandas.DataFrame
         The gap norm of every span after every simulated pass.
+    corrected_profiles : pandas.DataFrame
+        One row per profile sample of a span whose run was corrected (:data:`PROFILE_COLUMNS`):
+        the measured height, the final model's simulated pass and its static CW height there
+        (empty without ``profiles``). The corrected static profile is ``height_m −
+        (simulated_height_m − static_height_m)``.
     """
     n_max = max(catenary.span_type(t).n_droppers for t in spans["span_type"].unique()) if len(spans) else 0
     rows_out, history_out = [], []
@@ -508,13 +545,18 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
     for column, default in (("run_id", "run"), ("direction", 1), ("speed_kmh", np.nan), ("force_n", np.nan)):
         if column not in spans:
             spans[column] = default
-    done = []
+    done, profile_parts = [], []
     for rows in consecutive_runs(spans):
         if report is not None:
             rows = fill_unmeasured(rows, report, catenary)
         speed, force, direction, profile = measuring_conditions(rows, settings)
+        samples = None if profiles is None else _run_profile(rows, profiles)
         result = correct_run(rows, catenary, pantograph.with_static_force(force), speed, settings, log=log,
-                             direction=direction, speed_profile=profile)
+                             direction=direction, speed_profile=profile,
+                             profile_chainage_m=None if samples is None else samples["chainage_m"].to_numpy())
+        if samples is not None and result.profile_simulated_m is not None:
+            profile_parts.append(samples.assign(simulated_height_m=result.profile_simulated_m,
+                                                static_height_m=result.profile_static_m)[list(PROFILE_COLUMNS)])
         if after_run is not None:
             after_run(rows, result, pantograph.with_static_force(force), speed, direction, profile)
         done.append((rows, result, (speed, force, direction, profile)))
@@ -556,7 +598,27 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
     corrected = pd.DataFrame(rows_out, columns=columns)
     convergence = pd.DataFrame(history_out, columns=["section_id", "span_id", "run_id", "iteration", "mode",
                                                      "gap_norm_m"])
-    return corrected, convergence
+    corrected_profiles = (pd.concat(profile_parts, ignore_index=True) if profile_parts
+                          else pd.DataFrame({c: pd.Series(dtype=str if c in ("span_id", "run_id") else float)
+                                             for c in PROFILE_COLUMNS}))
+    return corrected, convergence, corrected_profiles
+
+
+
+def _run_profile(rows: pd.DataFrame, profiles: pd.DataFrame) -> pd.DataFrame:
+    """The measured profile samples of a run of spans' measured spans, with their chainage from
+    the run's first mast (``chainage_m``), in the run's span order."""
+    run_id = rows["run_id"].iloc[0]
+    lengths = (rows["end_chainage_m"] - rows["start_chainage_m"]).to_numpy(dtype=float)
+    starts = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
+    mine = profiles[profiles["run_id"].astype(str) == str(run_id)]
+    parts = []
+    for k in np.flatnonzero(_measured(rows)):
+        part = mine[mine["span_id"].astype(str) == str(rows.loc[k, "span_id"])]
+        parts.append(part.assign(chainage_m=starts[k] + part["x_m"].to_numpy(dtype=float)))
+    if not parts:
+        return pd.DataFrame(columns=["span_id", "run_id", "x_m", "height_m", "chainage_m"])
+    return pd.concat(parts, ignore_index=True)
 
 
 def _several_runs_residuals(done: list, catenary: Catenary, pantograph: Pantograph, settings: CorrectionSettings,
@@ -595,6 +657,15 @@ def corrected_schema(columns) -> "pa.Schema":
              "reason": pa.string(), "direction": pa.int64(), "iterations": pa.int64(), "slack_droppers": pa.int64(),
              "converged": pa.bool_()}
     return pa.schema([pa.field(c, kinds.get(c, pa.float64())) for c in columns])
+
+
+def profiles_schema() -> "pa.Schema":
+    """Arrow schema of the corrected profiles (:data:`PROFILE_COLUMNS`): ids as strings, the rest
+    float64 [m]."""
+    import pyarrow as pa
+
+    return pa.schema([pa.field(c, pa.string() if c in ("span_id", "run_id") else pa.float64(), nullable=False)
+                      for c in PROFILE_COLUMNS])
 
 
 def corrected_of_type(corrected: pd.DataFrame, span_type: str, n_droppers: int) -> pd.DataFrame:

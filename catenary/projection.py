@@ -89,6 +89,9 @@ REPORT_COLUMNS = ("span_id", "run_id", "section_id", "span_type", "status", "rea
 """Columns of the span report: one row per span and run, runs in the recording's order, spans in
 line order."""
 
+#: Columns of ``results/{span_type}/profiles.parquet``: the measured samples of each used span
+#: and run (:attr:`ProjectionResult.profiles`).
+PROFILE_COLUMNS = ("span_id", "run_id", "x_m", "height_m")
 QUALITY_COLUMNS = ("fit_rms_m", "min_samples_per_point", "outliers_removed", "max_gap_m", "cut_shift_m")
 RUN_COLUMNS = ("run_id", "direction", "speed_kmh", "force_n")
 #: Margin of the section-wide check of the cuts (module docs, step 5a) on a height trace [m]. Its
@@ -200,11 +203,17 @@ class ProjectionResult:
         One row per span and run (:data:`REPORT_COLUMNS`), ``status`` ``"used"`` or
         ``"rejected"``, ``reason`` empty when used, else every reason joined by ``"; "``.
     settings : ProjectionSettings
+    profiles : dict of str to pandas.DataFrame
+        Per span type, the whole measured profile of every used span and run
+        (:data:`PROFILE_COLUMNS`): one row per valid sample between the span's masts, spikes
+        and drop-outs left out, ``x_m`` from the left mast in the mast table's chainage. The
+        diagnosis reads it between the droppers, where W holds nothing (the per-span check).
     """
 
     spans: dict[str, pd.DataFrame]
     report: pd.DataFrame
     settings: ProjectionSettings = field(default_factory=ProjectionSettings)
+    profiles: dict[str, pd.DataFrame] = field(default_factory=dict)
 
     @property
     def n_used(self) -> int:
@@ -459,6 +468,7 @@ def project(recording: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
     lag = lag or (lambda name, speed: 0.0)
     report_rows: list[dict[str, Any]] = []
     used_rows: dict[str, list[dict[str, Any]]] = {name: [] for name in catenary.span_types}
+    profile_parts: dict[str, list[pd.DataFrame]] = {name: [] for name in catenary.span_types}
     n_spans = 0
     rec = rec.assign(row=np.arange(len(rec)))          # the file's row of each sample, for messages
     for run_id in rec["run_id"].unique():
@@ -484,11 +494,13 @@ def project(recording: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
                                                    "; ".join(outcome.reasons)))
                 else:
                     used_rows[outcome.span_type.name].append(outcome.row)
+                    profile_parts[outcome.span_type.name].append(outcome.profile)
                     report_rows.append(_report_row(span, outcome.span_type, STATUS_USED, ""))
     tables = {name: _spans_frame(rows, catenary.span_types[name].n_droppers) for name, rows in used_rows.items()}
     report = pd.DataFrame(report_rows, columns=list(REPORT_COLUMNS))
     report = report.astype({c: (float if c.endswith("_m") else "str") for c in REPORT_COLUMNS})
-    result = ProjectionResult(spans=tables, report=report, settings=settings)
+    profiles = {name: _profiles_frame(parts) for name, parts in profile_parts.items()}
+    result = ProjectionResult(spans=tables, report=report, settings=settings, profiles=profiles)
     check_reconciliation(result, n_spans)
     return result
 
@@ -500,6 +512,7 @@ class _Outcome:
     span_type: SpanType | None
     reasons: list
     row: dict
+    profile: pd.DataFrame | None = None
 
 
 @dataclass(frozen=True)
@@ -630,7 +643,9 @@ def _project_span(span: _Span, frame: _Frame, direction: int, catenary: Catenary
         "outliers_removed": int(sum(f.n_outliers for f in fits)),
         "max_gap_m": gap_max, "cut_shift_m": shift,
     })
-    return _Outcome(st, reasons, row)
+    xs, hs = frame.trace.window(a, b)
+    profile = pd.DataFrame({"span_id": span.span_id, "run_id": span.run_id, "x_m": xs - a, "height_m": hs})
+    return _Outcome(st, reasons, row, profile)
 
 
 def _cut_w_error(fits: list, where: np.ndarray, span: _Span) -> float:
@@ -773,6 +788,20 @@ def _spans_frame(rows: list[dict[str, Any]], n_droppers: int) -> pd.DataFrame:
     return df.astype(dtypes)
 
 
+#: Arrow schema of ``results/{span_type}/profiles.parquet``.
+PROFILE_SCHEMA = pa.schema([pa.field("span_id", pa.string(), nullable=False),
+                            pa.field("run_id", pa.string(), nullable=False),
+                            pa.field("x_m", pa.float64(), nullable=False),
+                            pa.field("height_m", pa.float64(), nullable=False)])
+
+
+def _profiles_frame(parts: list[pd.DataFrame]) -> pd.DataFrame:
+    if not parts:
+        return pd.DataFrame({"span_id": pd.Series(dtype="str"), "run_id": pd.Series(dtype="str"),
+                             "x_m": pd.Series(dtype=float), "height_m": pd.Series(dtype=float)})
+    return pd.concat(parts, ignore_index=True).astype({"span_id": "str", "run_id": "str"})
+
+
 def check_reconciliation(result: ProjectionResult, n_spans: int) -> None:
     """Spans in = used + rejected: every span of every run in the report once, used ones in exactly
     one table, rejected ones with a reason.
@@ -816,7 +845,8 @@ def check_reconciliation(result: ProjectionResult, n_spans: int) -> None:
 
 def write_projection(result: ProjectionResult, results_dir: str | Path, *, config_hash: str,
                      span_types: list[str] | None = None, catenary: Catenary | None = None) -> list[Path]:
-    """Write ``{results_dir}/{span_type}/spans.parquet`` and ``{results_dir}/spans_report.csv``.
+    """Write ``{results_dir}/{span_type}/spans.parquet``, ``{results_dir}/{span_type}/profiles.parquet``
+    and ``{results_dir}/spans_report.csv``.
 
     Parameters
     ----------
@@ -849,6 +879,10 @@ def write_projection(result: ProjectionResult, results_dir: str | Path, *, confi
             raise ValueError(f"span type {name!r} not in the projection result; pass catenary= to write it empty")
         path = results_dir / name / "spans.parquet"
         write_table(table, path, schema, config_hash=config_hash, kind=f"spans:{name}")
+        written.append(path)
+        path = results_dir / name / "profiles.parquet"
+        write_table(result.profiles.get(name, _profiles_frame([])), path, PROFILE_SCHEMA, config_hash=config_hash,
+                    kind=f"profiles:{name}")
         written.append(path)
     report_path = results_dir / "spans_report.csv"
     report_path.parent.mkdir(parents=True, exist_ok=True)

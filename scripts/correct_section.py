@@ -5,7 +5,7 @@ from pathlib import Path
 import pandas as pd
 
 from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings, correct_spans, corrected_schema
+from catenary.correction import CorrectionSettings, correct_spans, corrected_schema, profiles_schema
 from catenary.logs import rule_logger
 from catenary.model_error.correction import run_shifts, shift_columns
 from catenary.model_error.sources import ModelErrorSettings
@@ -20,6 +20,8 @@ pantograph = load_pantographs(snakemake.input.pantographs)[settings.pantograph]
 every = pd.concat([read_table(path).assign(span_type=span_type)
                    for span_type, path in zip(snakemake.params.span_types, snakemake.input.spans)], ignore_index=True)
 spans = every[every["section_id"] == section_id].reset_index(drop=True)
+profiles = pd.concat([read_table(path) for path in snakemake.input.profiles], ignore_index=True)
+profiles = profiles[profiles["span_id"].isin(spans["span_id"])].reset_index(drop=True)
 log.info("section %s: %d spans, %s pass, tolerance %.2f mm", section_id, len(spans), settings.mode,
          settings.tolerance_m * 1e3)
 report = pd.read_csv(snakemake.input.report, dtype={"span_id": str, "run_id": str, "section_id": str,
@@ -43,11 +45,14 @@ def measure_budget(rows, result, run_pantograph, speed_m_s, direction, profile):
              len(budget.sources))
 
 
-corrected, convergence = correct_spans(spans, catenary, pantograph, settings, log=log, report=report,
-                                       after_run=measure_budget if measure else None)
+corrected, convergence, corrected_profiles = correct_spans(spans, catenary, pantograph, settings, log=log,
+                                                           report=report, after_run=measure_budget if measure else None,
+                                                           profiles=profiles)
 (pd.concat(shifts, ignore_index=True) if shifts else pd.DataFrame(columns=shift_columns(n_max))).to_parquet(
     snakemake.output.model_error, index=False)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
             config_hash=settings_hash(snakemake.config), kind="corrected_section")
+write_table(corrected_profiles, Path(snakemake.output.profiles), profiles_schema(),
+            config_hash=settings_hash(snakemake.config), kind="corrected_profiles_section")
 convergence.to_csv(snakemake.output.convergence, index=False)
 log.info("section %s: %d of %d spans converged", section_id, int(corrected["converged"].sum()), len(corrected))

@@ -5,7 +5,7 @@ from pathlib import Path
 import pandas as pd
 
 from catenary.config import load_catenary
-from catenary.correction import corrected_of_type, corrected_schema, correction_summary
+from catenary.correction import corrected_of_type, corrected_schema, correction_summary, profiles_schema
 from catenary.logs import rule_logger
 from catenary.model_error.budget import w_budget
 from catenary.parquet import read_table, settings_hash, write_table
@@ -15,10 +15,14 @@ catenary = load_catenary(snakemake.input.catenary)
 corrected = pd.concat([read_table(p) for p in snakemake.input.sections], ignore_index=True)
 convergence = pd.concat([pd.read_csv(p, dtype={"section_id": str, "span_id": str})
                          for p in snakemake.input.convergence], ignore_index=True)
-for span_type, path in zip(snakemake.params.span_types, snakemake.output.corrected):
+profiles = pd.concat([read_table(p) for p in snakemake.input.profiles], ignore_index=True)
+for span_type, path, profile_path in zip(snakemake.params.span_types, snakemake.output.corrected,
+                                         snakemake.output.profiles):
     table = corrected_of_type(corrected, span_type, catenary.span_type(span_type).n_droppers)
     write_table(table, Path(path), corrected_schema(table.columns), config_hash=settings_hash(snakemake.config),
                 kind="corrected")
+    write_table(profiles[profiles["span_id"].isin(table["span_id"])], Path(profile_path), profiles_schema(),
+                config_hash=settings_hash(snakemake.config), kind="corrected_profiles")
 convergence.to_csv(snakemake.output.convergence, index=False)
 summary = correction_summary(corrected, convergence)
 summary.to_csv(snakemake.output.summary, index=False)

@@ -71,7 +71,7 @@ def test_correction_recovers_the_static_geometry(catenary, n2, measuring, mode, 
     spans = measured_run(truth, catenary, measuring, mode, time_step_s)
     settings = CorrectionSettings(mode=mode, time_step_s=time_step_s, tolerance_m=tolerance_m, max_iterations=4,
                                   quasi_static_start=start)
-    corrected, history = correct_spans(spans, catenary, measuring, settings)
+    corrected, history, _ = correct_spans(spans, catenary, measuring, settings)
     assert corrected["converged"].all() and corrected["iterations"].max() <= max_passes
     w_true = solve_static(truth, catenary).dropper_deflection_m().reshape(3, 9)
     w = corrected[[f"w{i}_m" for i in range(1, 10)]].to_numpy()
@@ -80,6 +80,33 @@ def test_correction_recovers_the_static_geometry(catenary, n2, measuring, mode, 
     np.testing.assert_allclose(w, w_true, atol=max_error_m)
     norms = history[history["mode"] == mode].groupby("iteration")["gap_norm_m"].max().to_numpy()
     assert np.all(np.diff(norms) < 0)
+
+
+def test_the_whole_profile_is_corrected(catenary, n2, measuring):
+    # Between the droppers, where W holds nothing, the final model's simulated pass must follow
+    # the measured profile as closely as at the droppers, and the corrected profile (measured
+    # minus the model's uplift) must land on the true static CW: the correction's 1 mm tolerance
+    # bounds both (the pass is noise-free, so nothing else enters).
+    time_step_s = 0.005
+    truth = true_line(catenary, n2)
+    spans = measured_run(truth, catenary, measuring, "dynamic", time_step_s)
+    x = np.arange(0.0, truth.mast_chainage_m[-1], 0.1)
+    measured = measuring_pass(truth, catenary, measuring, speed_m_s=SPEED_KMH / 3.6, mode="dynamic",
+                              time_step_s=time_step_s, chainage_m=x).height_m
+    span = np.minimum(np.searchsorted(truth.mast_chainage_m, x, side="right") - 1, truth.n_spans - 1)
+    profiles = pd.DataFrame({"span_id": spans["span_id"].to_numpy()[span], "run_id": "run",
+                             "x_m": x - truth.mast_chainage_m[span], "height_m": measured})
+    settings = CorrectionSettings(mode="dynamic", time_step_s=time_step_s, tolerance_m=1e-3, max_iterations=4)
+    corrected, _, profile = correct_spans(spans, catenary, measuring, settings, profiles=profiles)
+    assert corrected["converged"].all() and len(profile) == len(profiles)
+    at = truth.mast_chainage_m[spans.set_index("span_id").index.get_indexer(profile["span_id"])] + profile["x_m"]
+    residual = profile["height_m"] - profile["simulated_height_m"]
+    static_true = solve_static(truth, catenary).cw_height_at(at.to_numpy())
+    corrected_profile = profile["height_m"] - (profile["simulated_height_m"] - profile["static_height_m"])
+    uplift = profile["height_m"] - static_true
+    assert np.abs(uplift).max() > 5e-3                         # the uplift is not trivial
+    assert np.abs(residual).max() < 1e-3
+    assert np.abs(corrected_profile - static_true).max() < 1e-3
 
 
 def test_runs_split_at_missing_spans_and_sections(catenary, n2):
@@ -108,7 +135,7 @@ def test_slack_dropper_in_the_truth_is_found(catenary, n2, measuring):
                               chainage_m=points).height_m
     spans = measured_spans(truth, measured[:18], measured[18:])
     settings = CorrectionSettings(mode="quasi_static", tolerance_m=2e-5)
-    corrected, _ = correct_spans(spans, catenary, measuring, settings)
+    corrected, *_ = correct_spans(spans, catenary, measuring, settings)
     assert corrected["converged"].all()
     w = corrected[[f"w{i}_m" for i in range(1, 10)]].to_numpy()
     error = np.abs(w - static.dropper_deflection_m().reshape(2, 9)).ravel()
@@ -121,7 +148,7 @@ def test_impossible_span_is_reported_not_lost(catenary, n2, measuring):
     spans = measured_spans(truth, h_d, truth.cw_support_heights_m)
     spans.loc[1, "w5_m"] += 0.3          # a CW 30 cm above its neighbours: no dropper can hold it there
     settings = CorrectionSettings(mode="quasi_static", max_iterations=3)
-    corrected, _ = correct_spans(spans, catenary, measuring, settings)
+    corrected, *_ = correct_spans(spans, catenary, measuring, settings)
     assert len(corrected) == 2 and corrected["converged"].tolist() == [True, False]
     assert corrected.loc[1, "slack_droppers"] >= 1 and "gap" in corrected.loc[1, "reason"]
 
@@ -151,7 +178,7 @@ def test_only_a_solver_failure_is_reported_as_a_failed_run(catenary, n2, measuri
         raise ConvergenceError("dropper/contact states did not settle in 50 iterations")
 
     monkeypatch.setattr(correction, "measuring_pass", unsettled)
-    corrected, _ = correct_spans(spans, catenary, measuring, settings)
+    corrected, *_ = correct_spans(spans, catenary, measuring, settings)
     assert len(corrected) == 2 and not corrected["converged"].any()
     assert corrected["reason"].str.contains("a solver did not converge on this run .*did not settle").all()
 
@@ -184,7 +211,7 @@ def test_runs_in_opposite_directions_give_the_sensor_noise_in_their_measured_res
         heights_d = heights[:d] + np.random.default_rng(seed).normal(0.0, sigma, d)
         runs.append(measured_spans(truth, heights_d, heights[d:]).assign(run_id=run_id, direction=direction))
     settings = CorrectionSettings(time_step_s=time_step_s, max_iterations=5)
-    corrected, _ = correct_spans(pd.concat(runs, ignore_index=True), catenary, measuring, settings)
+    corrected, *_ = correct_spans(pd.concat(runs, ignore_index=True), catenary, measuring, settings)
     assert corrected["converged"].all()
     residuals = corrected[[f"residual_w{i}_m" for i in range(1, 10)]].to_numpy()
     assert np.isfinite(residuals).all()
@@ -197,5 +224,5 @@ def test_a_single_run_has_no_measured_residuals(catenary, n2, measuring):
     # Nothing to compare it with: the residual columns are there and empty, no pass is added.
     truth = true_line(catenary, n2)
     spans = measured_run(truth, catenary, measuring, "quasi_static", 0.005)
-    corrected, _ = correct_spans(spans, catenary, measuring, CorrectionSettings(mode="quasi_static"))
+    corrected, *_ = correct_spans(spans, catenary, measuring, CorrectionSettings(mode="quasi_static"))
     assert corrected[[f"residual_w{i}_m" for i in range(1, 10)]].isna().all().all()

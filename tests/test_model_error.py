@@ -25,7 +25,7 @@ def _corrected(catenary, n2, pantograph, mode, sources, tolerance_m, time_step_s
         tables.append(run_shifts(rows, result, catenary, panto, speed, sources, mode=mode, time_step_s=time_step_s,
                                  direction=direction, speed_profile=profile))
 
-    corrected, _ = correct_spans(spans, catenary, pantograph, settings, after_run=budget)
+    corrected, *_ = correct_spans(spans, catenary, pantograph, settings, after_run=budget)
     return spans, corrected, tables[0]
 
 
@@ -60,7 +60,7 @@ def test_linear_shifts_match_a_full_correction_at_the_perturbed_inputs(catenary,
     for name, (pantograph, force_n) in moved.items():
         settings = CorrectionSettings(mode="dynamic", time_step_s=0.005, tolerance_m=tolerance_m, max_iterations=25,
                                       quasi_static_start=False, force_n=force_n)
-        again, _ = correct_spans(spans, catenary, pantograph, settings)
+        again, *_ = correct_spans(spans, catenary, pantograph, settings)
         assert again["converged"].all()
         full = again[W].to_numpy() - corrected[W].to_numpy()
         linear = shifts.loc[shifts["source"] == name, W].to_numpy()

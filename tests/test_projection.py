@@ -300,8 +300,15 @@ def test_write_projection(catenary, tmp_path):
     masts.loc[0, "span_type"] = "N7"
     result = project(recording, masts, catenary)
     files = write_projection(result, tmp_path, config_hash="c0ffee", span_types=["N2", "N3"])
-    assert files == [tmp_path / "N2" / "spans.parquet", tmp_path / "N3" / "spans.parquet",
+    assert files == [tmp_path / "N2" / "spans.parquet", tmp_path / "N2" / "profiles.parquet",
+                     tmp_path / "N3" / "spans.parquet", tmp_path / "N3" / "profiles.parquet",
                      tmp_path / "spans_report.csv"]
+    # The whole profile of every used span: its valid samples between its masts, from the left mast.
+    profile = read_table(tmp_path / "N2" / "profiles.parquet")
+    assert set(profile["span_id"]) == set(n2["span_id"]) if (n2 := read_table(tmp_path / "N2" / "spans.parquet")
+                                                              ).size else profile.empty
+    lengths = n2.set_index("span_id")["length_m"]
+    assert (profile["x_m"] >= 0).all() and (profile["x_m"] <= profile["span_id"].map(lengths) + 1e-9).all()
     n2 = read_table(tmp_path / "N2" / "spans.parquet")
     pd.testing.assert_frame_equal(n2, result.spans["N2"], check_dtype=False)
     schema = pq.read_schema(tmp_path / "N2" / "spans.parquet")

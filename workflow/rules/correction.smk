@@ -6,11 +6,13 @@ rule correct_section:
     """Iterative dynamic correction of one section's spans (paper §2.2, Fig. 5)."""
     input:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
+        profiles=expand(f"{RESULTS}/{{span_type}}/profiles.parquet", span_type=SPAN_TYPES),
         report=f"{RESULTS}/spans_report.csv",
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:
         corrected=f"{RESULTS}/correction/sections/{{section_id}}.parquet",
+        profiles=f"{RESULTS}/correction/sections/{{section_id}}_profiles.parquet",
         convergence=f"{RESULTS}/correction/sections/{{section_id}}_convergence.csv",
         model_error=f"{RESULTS}/correction/sections/{{section_id}}_model_error.parquet",
     wildcard_constraints:
@@ -42,10 +44,13 @@ rule correction:
                                       section_id=correction_sections()),
         model_error=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}_model_error.parquet",
                                       section_id=correction_sections()),
+        profiles=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}_profiles.parquet",
+                                   section_id=correction_sections()),
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         catenary=config["catenary"],
     output:
         corrected=expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES),
+        profiles=expand(f"{RESULTS}/{{span_type}}/corrected_profiles.parquet", span_type=SPAN_TYPES),
         convergence=reported(f"{RESULTS}/correction/convergence.csv", "correction_convergence", CORRECTION, "Convergence per iteration", category=LINE),
         summary=reported(f"{RESULTS}/correction/summary.csv", "correction_summary", CORRECTION, "Correction per span type", category=LINE),
         model_error=f"{RESULTS}/correction/model_error.parquet",

@@ -141,6 +141,7 @@ checkpoint project:
         pantographs=config["pantographs"],
     output:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
+        profiles=expand(f"{RESULTS}/{{span_type}}/profiles.parquet", span_type=SPAN_TYPES),
         report=reported(f"{RESULTS}/spans_report.csv", "spans_report", PROJECTION, "Spans used and rejected", category=LINE),
     params:
         projection=config["projection"],
