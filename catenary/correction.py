@@ -155,6 +155,10 @@ class RunCorrection:
     simulated_height_m : numpy.ndarray or None
         The last simulated pass, over the final model: CW heights at the run's droppers, then
         at its masts [m] (None when the run failed); the model-error budget's base pass.
+    dropper_force_n : numpy.ndarray or None
+        Static tension of every dropper of the final model, (n_spans, n_droppers) [N] (NaN beyond
+        a span's droppers; None when the run failed): a dropper that carries less than the
+        measuring pass unloads it by may go slack under the pantograph.
     profile_simulated_m, profile_static_m : numpy.ndarray or None
         At the run's profile chainages (``correct_run``'s ``profile_chainage_m``): the final
         model's simulated measuring pass and its static CW height [m] (None without profile
@@ -171,6 +175,7 @@ class RunCorrection:
     slack_droppers: np.ndarray | None = None
     section: Section | None = None
     simulated_height_m: np.ndarray | None = None
+    dropper_force_n: np.ndarray | None = None
     profile_simulated_m: np.ndarray | None = None
     profile_static_m: np.ndarray | None = None
 
@@ -376,13 +381,15 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
         return RunCorrection(span_ids, empty, np.full(len(rows), np.nan), _passes(history, settings.mode),
                              history, failure=f"a solver did not converge on this run ({exc})")
     w = solution.dropper_deflection_m()
-    static_w = empty.copy()
+    static_w, forces = empty.copy(), empty.copy()
     for k in range(len(rows)):
         static_w[k, :n_d[k]] = w[section.dropper_span == k]
+        forces[k, :n_d[k]] = solution.dropper_force_n[section.dropper_span == k]
     slack = np.bincount(section.dropper_span, inverse.slack, minlength=len(rows)).astype(int)
     return RunCorrection(span_ids, static_w, history[-1][1], _passes(history, settings.mode), history,
                          section.dropper_lengths_m, slack_droppers=slack, section=section,
-                         simulated_height_m=simulated[:n_points], profile_simulated_m=profile_simulated,
+                         simulated_height_m=simulated[:n_points], dropper_force_n=forces,
+                         profile_simulated_m=profile_simulated,
                          profile_static_m=None if profile_chainage_m is None else solution.cw_height_at(profile_x))
 
 
@@ -573,6 +580,9 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
                         for i in range(n_max)})
             row.update({f"residual_w{i + 1}_m": residual[k, i] if i < residual.shape[1] else np.nan
                         for i in range(n_max)})
+            force = result.dropper_force_n
+            row.update({f"dropper_{i + 1}_force_n": force[k, i] if force is not None and i < force.shape[1] else np.nan
+                        for i in range(n_max)})
             row.update(iterations=int(passes[k]), gap_norm_m=result.gap_norm_m[k], converged=bool(converged[k]),
                        slack_droppers=0 if result.slack_droppers is None else int(result.slack_droppers[k]),
                        reason=reason)
@@ -593,7 +603,8 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
                      _nanmax(result.gap_norm_m) * 1e3,
                      f"; FAILED: {result.failure}" if result.failure else "")
     columns = CORRECTED_BASE_COLUMNS + [f"w{i + 1}_m" for i in range(n_max)] + [
-        f"residual_w{i + 1}_m" for i in range(n_max)] + ["iterations", "gap_norm_m", "converged", "slack_droppers",
+        f"residual_w{i + 1}_m" for i in range(n_max)] + [f"dropper_{i + 1}_force_n" for i in range(n_max)] + [
+        "iterations", "gap_norm_m", "converged", "slack_droppers",
                                                           "reason"]
     corrected = pd.DataFrame(rows_out, columns=columns)
     convergence = pd.DataFrame(history_out, columns=["section_id", "span_id", "run_id", "iteration", "mode",
@@ -669,9 +680,10 @@ def profiles_schema() -> "pa.Schema":
 
 
 def corrected_of_type(corrected: pd.DataFrame, span_type: str, n_droppers: int) -> pd.DataFrame:
-    """The rows of ``span_type`` in chainage order, with its ``n_droppers`` W columns only."""
+    """The rows of ``span_type`` in chainage order, with its ``n_droppers`` W and dropper-force
+    columns only."""
     table = corrected[corrected["span_type"] == span_type].sort_values("start_chainage_m").reset_index(drop=True)
-    extra = [f"w{i}_m" for i in range(n_droppers + 1, 100) if f"w{i}_m" in table]
+    extra = [c for i in range(n_droppers + 1, 100) for c in (f"w{i}_m", f"dropper_{i}_force_n") if c in table]
     return table.drop(columns=extra)
 
 

@@ -20,10 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import Catenary, SpanType
-from .dropper_table import nominal_dropper_lengths
+from .dropper_table import dropper_lengths_for_cw_heights, nominal_dropper_lengths
 from .dynamics import CatenaryDynamics, quasi_static_heights, run_pantograph
 from .pantograph import Pantograph
 from .section import Section, uniform_section
+from .static import StaticModel
 
 MODES = ("dynamic", "quasi_static")
 
@@ -156,3 +157,74 @@ def force_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantogr
 
     f0 = pantograph.static_force_n
     return (w(f0 + step_n) - w(f0 - step_n)) / (2.0 * step_n)
+
+
+#: Droppers of the span the car leaves before it enters the central one whose static CW moves the
+#: central span's measured profile enough to count (the pantograph's motion carries over a mast).
+CARRY_OVER_DROPPERS = 6
+
+
+def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,
+                      x_m: np.ndarray, mode: str = "dynamic", time_step_s: float | None = None,
+                      direction: int = 1, neighbours: int = 2, step_m: float = 1e-3) -> np.ndarray:
+    """Sensitivity of a span's measured profile to its static CW at its droppers and masts [m/m].
+
+    The central span of ``2 neighbours + 1`` spans of ``span_type`` at the nominal table is run
+    over once as it is and once per support point with the static CW raised there by
+    ``step_m``: at a dropper, the dropper lengths are solved again (the correction's own move),
+    at a mast, its steady arm is raised with the droppers' CW held. Statically the columns are
+    the hats of a tensioned wire held at those points; the pass adds the pantograph's dynamic
+    response to each change (≈ 0.15–0.3 of it between the droppers on N2 at 40 km/h). They are
+    the freedoms a correction stopped within its tolerance leaves in the measured profile
+    (:mod:`catenary.diagnosis.profile_check`). The last :data:`CARRY_OVER_DROPPERS` droppers of
+    the span the car comes from move it too, through the pantograph's motion (≈ 0.04–0.09 of
+    their change at N2's first droppers). Forward differences: the pass is linear in the static
+    CW while every dropper stays taut and the pantograph in contact.
+
+    Parameters
+    ----------
+    x_m : array_like
+        Abscissae from the central span's left mast [m], within the span.
+    direction : {1, -1}
+        Direction of travel of the measuring car.
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(x_m), n_droppers + 2 + CARRY_OVER_DROPPERS)
+        Columns: the droppers in order, the left and the right mast, then the previous span's
+        droppers from the farthest to the nearest.
+    """
+    lengths = nominal_dropper_lengths(span_type, catenary).dropper_lengths_m
+    section = uniform_section(span_type, 2 * neighbours + 1, lengths)
+    x = np.asarray(x_m, dtype=float)
+    if x.ndim != 1 or np.any(x < 0) or np.any(x > span_type.length_m):
+        raise ValueError(f"x_m: expected abscissae within the span [0, {span_type.length_m}] m")
+    at = section.mast_chainage_m[neighbours] + x
+    ops = CatenaryDynamics(section, catenary) if direction == 1 else CatenaryDynamics(section.mirrored(), catenary)
+
+    def run(s: Section) -> np.ndarray:
+        return measuring_pass(s, catenary, pantograph, speed_m_s=speed_m_s, mode=mode, time_step_s=time_step_s,
+                              chainage_m=at, direction=direction,
+                              ops=None if s is not section else ops).height_m
+
+    base = run(section)
+    heights = StaticModel(section, catenary).solve().cw_height_at(section.dropper_chainage_m)
+    n = span_type.n_droppers
+    columns = []
+    k = CARRY_OVER_DROPPERS
+    previous = (range((neighbours - 1) * n + n - k, neighbours * n) if direction == 1
+                else range((neighbours + 2) * n - 1 - (n - k), (neighbours + 1) * n - 1, -1))
+
+    def raised_dropper(i: int) -> np.ndarray:
+        target = heights.copy()
+        target[i] += step_m
+        return (run(dropper_lengths_for_cw_heights(section, catenary, target).section) - base) / step_m
+
+    columns = [raised_dropper(i) for i in range(neighbours * n, (neighbours + 1) * n)]
+    for mast in (neighbours, neighbours + 1):
+        support = section.cw_support_heights_m.copy()
+        support[mast] += step_m
+        raised = section.with_cw_support_heights(support)
+        columns.append((run(dropper_lengths_for_cw_heights(raised, catenary, heights).section) - base) / step_m)
+    columns += [raised_dropper(i) for i in previous]
+    return np.column_stack(columns)

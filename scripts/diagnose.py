@@ -1,4 +1,6 @@
-"""Rule diagnose: locate, name, add the missing effects of one span type's identification model.
+"""Rule diagnose: locate, name, add the missing effects of one span type's identification model,
+then check every span (and section) against the final model and diagnose again without the spans
+it does not explain.
 
 The refits run in ``threads`` worker processes. Snakemake sets OPENBLAS_NUM_THREADS and its kin
 to the job's ``threads`` (2); each process must use one BLAS thread instead, or the 3 processes
@@ -14,16 +16,18 @@ from pathlib import Path  # noqa: E402
 
 from catenary.config import load_catenary  # noqa: E402
 from catenary.correction import CorrectionSettings  # noqa: E402
-from catenary.diagnosis.inputs import measuring_pass_of  # noqa: E402
-from catenary.diagnosis.outputs import DiagnosisPaths, write_diagnosis  # noqa: E402
-from catenary.diagnosis.runner import diagnose  # noqa: E402
+from catenary.diagnosis.inputs import measuring_pass_of, profile_check_of  # noqa: E402
+from catenary.diagnosis.outputs import DiagnosisPaths, write_line_diagnosis  # noqa: E402
+from catenary.diagnosis.runner import diagnose_line  # noqa: E402
 from catenary.diagnosis.settings import DiagnosisSettings  # noqa: E402
-from catenary.identification.data import read_corrected  # noqa: E402
+from catenary.identification.data import read_corrected, span_places  # noqa: E402
 from catenary.identification.settings import IdentificationSettings  # noqa: E402
 from catenary.logs import rule_logger  # noqa: E402
 from catenary.model_error.diagnosis import (BudgetSignatures, budget_signatures,  # noqa: E402
                                             free_mean_directions, read_budget)
+from catenary.model_error.propagation import span_shifts  # noqa: E402
 from catenary.pantograph import load_pantographs  # noqa: E402
+from catenary.parquet import read_table  # noqa: E402
 
 log = rule_logger("diagnose", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -38,14 +42,25 @@ pantograph = load_pantographs(snakemake.input.pantographs)[correction.pantograph
 measuring = measuring_pass_of(snakemake.input.corrected, span_type, catenary, pantograph, correction)
 log.info("measuring pass: %.1f km/h, declared force %.1f N; ∂W/∂F at the droppers %s mm/N", 3.6 * measuring.speed_m_s,
          measuring.force_n, " ".join(f"{1e3 * g:.3f}" for g in measuring.influence_m_n))
-run = diagnose(span_type, catenary, data.w_m, identification, settings, mast_pairs=data.mast_pairs,
-               force_influence_m_n=measuring.influence_m_n, declared_force_n=measuring.force_n,
-               workers=snakemake.threads, n_left_out=len(data.left_out), log=log)
+profile, noise = profile_check_of(snakemake.input.corrected, snakemake.input.profiles, span_type, catenary, pantograph,
+                                  correction, settings.span_check().profile, measuring.speed_m_s, measuring.force_n)
+log.info("%s: whole profiles of %d spans read between the droppers: noise %.3f mm per sample (AR(1) %.2f, every "
+         "%.2f m)", span_type.name, len(profile), 1e3 * noise.std_m, noise.ar1, noise.step_m)
+extra = None
+if snakemake.params.model_error_enabled:
+    shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
+                         span_type.n_droppers, read_table(snakemake.input.corrected))
+    extra = sum((b.T @ b) / b.shape[0] for b in shifts.w_m.values()) if shifts.w_m else None
+line = diagnose_line(span_type, catenary, data, span_places(read_table(snakemake.input.corrected), data.span_id),
+                     identification, settings, profile=profile, extra_covariance_m2=extra,
+                     force_influence_m_n=measuring.influence_m_n, declared_force_n=measuring.force_n,
+                     workers=snakemake.threads, n_left_out=len(data.left_out), log=log)
 budget = None
 if snakemake.params.model_error_enabled:
     budget = BudgetSignatures(budget_signatures(read_budget(snakemake.input.model_error_budget), span_type.name),
                               free_mean_directions(span_type, catenary, identification))
     log.info("%s: named effects checked against the correction's model-error budget (%s)", span_type.name,
              ", ".join(budget.sources) or "no source measured")
-write_diagnosis(run, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent), budget)
-log.info("%s: named %s in %.0f s", span_type.name, run.named or "nothing", run.time_s)
+write_line_diagnosis(line, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent), budget)
+log.info("%s: named %s in %.0f s; %d spans unexplained", span_type.name, line.run.named or "nothing", line.run.time_s,
+         line.check.n_unexplained)

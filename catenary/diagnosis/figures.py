@@ -12,7 +12,7 @@ from scipy import stats
 
 from ..plots import plt, save_figure
 
-__all__ = ["eigenvalue_figure", "qq_figure", "residual_figure", "score_figure"]
+__all__ = ["eigenvalue_figure", "qq_figure", "residual_figure", "score_figure", "spans_figure"]
 
 
 def _panels(run, height: float = 3.6):
@@ -107,4 +107,41 @@ def score_figure(run, path: str | Path, title: str) -> Path:
         ax.set_title(f"{title} step {step.step}: score screen", fontsize=9)
         ax.grid(alpha=0.3, axis="x")
         ax.legend(fontsize=7)
+    return save_figure(fig, path)
+
+
+def spans_figure(spans, sections, path: str | Path, title: str, fdr: float) -> Path:
+    """Along the chainage: each span's −log₁₀ p (its W and profile together) against the
+    false-discovery line, unexplained spans and the sections flagged as one group marked; below,
+    where each unexplained span's profile departs most from the model and by how much [mm]."""
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(11, 5.6), sharex=True, height_ratios=[2, 1])
+    mid = 0.5 * (spans["start_chainage_m"] + spans["end_chainage_m"]).to_numpy(dtype=float)
+    p = np.clip(spans["p_value"].to_numpy(dtype=float), 1e-300, 1.0)
+    bad = spans["unexplained"].to_numpy(dtype=bool)
+    for section in sections.loc[sections["unexplained"].astype(bool), "section_id"]:
+        rows = spans[spans["section_id"] == section]
+        for ax in (top, bottom):
+            ax.axvspan(rows["start_chainage_m"].min(), rows["end_chainage_m"].max(), color="C1", alpha=0.15)
+    top.plot(mid[~bad], -np.log10(p[~bad]), "o", color="C0", ms=3, label="explained")
+    top.plot(mid[bad], -np.log10(p[bad]), "o", color="C3", ms=5, label="unexplained")
+    ranked = np.sort(p)
+    passing = ranked[ranked <= fdr * np.arange(1, ranked.size + 1) / ranked.size]
+    threshold = passing.max() if passing.size else fdr / max(ranked.size, 1)
+    top.axhline(-np.log10(threshold), color="k", lw=0.8, ls="--",
+                label=f"false-discovery rate {100 * fdr:g} % (Benjamini–Hochberg)")
+    top.set_ylabel("−log₁₀ p of the span")
+    top.set_title(f"{title}: spans the final model does not explain"
+                  + (" (shaded: a section whose spans depart together)" if sections["unexplained"].any() else ""),
+                  fontsize=9)
+    top.legend(fontsize=7)
+    top.grid(alpha=0.3)
+    peak = spans["peak_chainage_m"].to_numpy(dtype=float)
+    size = spans["peak_size_mm"].to_numpy(dtype=float)
+    bottom.axhline(0.0, color="k", lw=0.6)
+    bottom.plot(peak[~bad], size[~bad], ".", color="C0", ms=2, label="largest departure of each span")
+    bottom.plot(peak[bad], size[bad], "v", color="C3", ms=6, label="unexplained span: where and how much")
+    bottom.set_xlabel("chainage [m]")
+    bottom.set_ylabel("profile departure [mm]")
+    bottom.legend(fontsize=7)
+    bottom.grid(alpha=0.3)
     return save_figure(fig, path)

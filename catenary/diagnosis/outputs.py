@@ -2,7 +2,8 @@
 
 ``findings.csv`` (one row per step), ``candidates.csv`` (every candidate at every step),
 ``steps.json`` (everything located before and after each step), the four figures of
-:mod:`.figures` and ``summary.md`` in plain words.
+:mod:`.figures` and ``summary.md`` in plain words; with the per-span check, ``spans.csv``,
+``sections.csv`` and ``spans.png``.
 """
 
 from __future__ import annotations
@@ -16,16 +17,19 @@ import pandas as pd
 
 from ..model_error.diagnosis import Alike, BudgetSignatures, correction_model_alike
 from .candidates import CANDIDATES, CandidateParameter
-from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure
-from .runner import DiagnosisRun, Step
+from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure, spans_figure
+from .runner import DiagnosisRun, LineDiagnosis, Step
 
 __all__ = ["CANDIDATE_COLUMNS", "DiagnosisPaths", "FINDING_COLUMNS", "candidates_table", "findings_table",
-           "format_magnitude", "step_alike", "summary_markdown", "write_diagnosis"]
+           "format_magnitude", "spans_markdown", "step_alike", "summary_markdown", "write_diagnosis",
+           "write_line_diagnosis"]
 
 FINDING_COLUMNS = ("step", "verdict", "effect", "runner_up", "delta_loglik", "p_value", "parameters",
                    "gap_closed_fraction", "bic_margin_to_runner_up", "j_before", "j_after", "top_eigenvalue_before",
                    "top_eigenvalue_after", "top_eigenvalue_band_after", "mahalanobis_cvm_p_before",
-                   "mahalanobis_cvm_p_after", "converged", "correction_model_alike", "correction_model_fit")
+                   "mahalanobis_cvm_p_after", "converged", "correction_model_alike", "correction_model_fit",
+                   "n_unexplained_left_out", "verdict_with_unexplained", "effect_with_unexplained",
+                   "depends_on_unexplained")
 CANDIDATE_COLUMNS = ("step", "effect", "n_parameters", "loglik", "delta_loglik", "lr_statistic", "lr_sandwich_factor",
                      "p_value", "p_adjusted", "aic", "bic", "parameters", "detectable_magnitude", "score_statistic",
                      "score_p_value", "score_z", "converged", "n_evaluations", "time_s")
@@ -43,13 +47,17 @@ class DiagnosisPaths:
     qq: Path
     scores: Path
     summary: Path
+    spans: Path | None = None
+    sections: Path | None = None
+    spans_figure: Path | None = None
 
     @classmethod
     def in_folder(cls, folder: str | Path) -> "DiagnosisPaths":
         f = Path(folder)
         return cls(findings=f / "findings.csv", candidates=f / "candidates.csv", steps=f / "steps.json",
                    residuals=f / "residuals.png", eigenvalues=f / "eigenvalues.png", qq=f / "mahalanobis_qq.png",
-                   scores=f / "score_screen.png", summary=f / "summary.md")
+                   scores=f / "score_screen.png", summary=f / "summary.md", spans=f / "spans.csv",
+                   sections=f / "sections.csv", spans_figure=f / "spans.png")
 
 
 def _json(value) -> str:
@@ -91,11 +99,15 @@ def step_alike(step: Step, budget: BudgetSignatures | None) -> Alike | None:
                                   budget.sources, budget.absorbed)
 
 
-def findings_table(run: DiagnosisRun, budget: BudgetSignatures | None = None) -> pd.DataFrame:
+def findings_table(run: DiagnosisRun, budget: BudgetSignatures | None = None,
+                   with_unexplained: DiagnosisRun | None = None, n_unexplained: int = 0) -> pd.DataFrame:
     """One row per step (:data:`FINDING_COLUMNS`); ``correction_model_alike`` (true, false, or
     empty when not checked: nothing named, or no budget) and ``correction_model_fit`` (JSON: the
     sources' best combination) say whether a named effect is within the correction's model-error
-    budget (:func:`step_alike`)."""
+    budget (:func:`step_alike`). When ``n_unexplained`` spans were left out of ``run``, each
+    step's verdict and effect with them kept (``with_unexplained``) are given beside, and
+    ``depends_on_unexplained`` says where they differ."""
+    other = {st.step: st for st in with_unexplained.steps} if with_unexplained is not None else {}
     rows = []
     for s in run.steps:
         alike = step_alike(s, budget)
@@ -114,7 +126,11 @@ def findings_table(run: DiagnosisRun, budget: BudgetSignatures | None = None) ->
             mahalanobis_cvm_p_before=s.before.cvm_p_value, mahalanobis_cvm_p_after=after.cvm_p_value if after else np.nan,
             converged=bool(lead.converged) if lead else True,
             correction_model_alike=bool(alike.alike) if alike else None,
-            correction_model_fit=alike.as_json() if alike else ""))
+            correction_model_fit=alike.as_json() if alike else "", n_unexplained_left_out=n_unexplained,
+            verdict_with_unexplained=other[s.step].verdict if s.step in other else "",
+            effect_with_unexplained=(other[s.step].effect or "") if s.step in other else "",
+            depends_on_unexplained=(s.step not in other or (other[s.step].verdict, other[s.step].effect)
+                                    != (s.verdict, s.effect)) if with_unexplained is not None else False))
     return pd.DataFrame(rows, columns=list(FINDING_COLUMNS))
 
 
@@ -260,12 +276,18 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
     return "\n".join(lines)
 
 
-def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, budget: BudgetSignatures | None = None) -> None:
+def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, budget: BudgetSignatures | None = None, *,
+                    with_unexplained: DiagnosisRun | None = None, n_unexplained: int = 0,
+                    extra_summary: list[str] | None = None) -> None:
     """Write every output of one span type's diagnosis (``budget``: the correction's model-error
-    budget, :class:`catenary.model_error.diagnosis.BudgetSignatures`; None: not measured)."""
+    budget, :class:`catenary.model_error.diagnosis.BudgetSignatures`; None: not measured;
+    ``with_unexplained``, ``n_unexplained``: :func:`findings_table`; ``extra_summary``: lines
+    appended to ``summary.md``)."""
     for p in paths.__dict__.values():
-        Path(p).parent.mkdir(parents=True, exist_ok=True)
-    findings_table(run, budget).to_csv(paths.findings, index=False, float_format="%.10g")
+        if p is not None:
+            Path(p).parent.mkdir(parents=True, exist_ok=True)
+    findings_table(run, budget, with_unexplained, n_unexplained).to_csv(paths.findings, index=False,
+                                                                        float_format="%.10g")
     candidates_table(run).to_csv(paths.candidates, index=False, float_format="%.10g")
     steps = [{"step": s.step, "model_effects": list(s.model_effects), "verdict": s.verdict, "effect": s.effect,
               "runner_up": s.runner_up, "before": s.before.as_dict(), "after": s.after.as_dict() if s.after else None}
@@ -281,4 +303,62 @@ def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, budget: BudgetSign
     score_figure(run, paths.scores, title)
     Path(paths.summary).write_text(summary_markdown(
         run, figures=tuple(Path(p).name for p in (paths.residuals, paths.eigenvalues, paths.qq, paths.scores)),
-        budget=budget))
+        budget=budget) + "\n\n" + "\n".join(extra_summary or []))
+
+
+def spans_markdown(line: LineDiagnosis) -> list[str]:
+    """The per-span check in plain words (summary.md's last section)."""
+    check, run = line.check, line.run
+    spans, sections = check.spans, check.sections
+    n = len(spans)
+    fdr = run.settings.fdr
+    lines = ["## Spans the model does not explain", ""]
+    lines.append(f"Every span's data — W at the droppers and its whole profile between them — were tested "
+                 f"against the final model (identified laws, named effects, measurement noise, the "
+                 f"correction's error), and every section's spans together; false-discovery rate "
+                 f"{100 * fdr:g} % (Benjamini–Hochberg).")
+    lines.append("")
+    bad = spans[spans["unexplained"].astype(bool)]
+    if bad.empty:
+        lines += [f"All {n} spans are explained (smallest q-value {spans['q_value'].min():.2g}).", ""]
+    else:
+        groups = sections[sections["unexplained"].astype(bool)]
+        lines.append(f"**{len(bad)} of {n} spans are unexplained**"
+                     + (f", {int(bad['group'].astype(bool).sum())} of them in "
+                        + ", ".join(f"section {g}" for g in groups["section_id"]) + " whose spans depart together"
+                        if len(groups) else "") + ". No law, named effect or maintenance action is drawn from "
+                     "them: the maintenance list sends an inspection instead.")
+        lines.append("")
+        for g in groups.itertuples():
+            lines.append(f"- Section {g.section_id} ({g.n_spans} spans, q = {g.q_value:.2g}): "
+                         + (f"its spans share a T_MW offset of {g.messenger_tension_offset_n:+.0f} ± "
+                            f"{g.messenger_tension_offset_se_n:.0f} N from the line's — its tensioning device."
+                            if g.tension_offset else "its spans depart together, not as a T_MW offset would."))
+        lines += ["", "| span | chainage [m] | q-value | where the profile departs | why |", "|---|---|---:|---|---|"]
+        for r in bad.itertuples():
+            where = (f"{r.peak_chainage_m:.1f} m, {r.peak_size_mm:+.1f} mm" if np.isfinite(r.peak_chainage_m) else "")
+            lines.append(f"| {r.span_id} | {r.start_chainage_m:.1f}–{r.end_chainage_m:.1f} | {r.q_value:.2g} | "
+                         f"{where} | {r.why} |")
+        lines.append("")
+    if line.with_unexplained is not None:
+        same = not line.depends_on_unexplained
+        lines.append(f"The verdicts above are those of the {run.n_spans} spans the model explains. With the "
+                     f"unexplained spans kept, the diagnosis named "
+                     f"{', '.join(f'`{e}`' for e in line.with_unexplained.named) or 'nothing'}: "
+                     + ("the same — what was named is carried by the bulk of the spans." if same else
+                        "**a different verdict: it depended on the unexplained spans**, and is not kept."))
+        lines.append("")
+    lines.append("![spans](spans.png)")
+    lines.append("")
+    return lines
+
+
+def write_line_diagnosis(line: LineDiagnosis, paths: DiagnosisPaths, budget: BudgetSignatures | None = None) -> None:
+    """Write a span type's diagnosis with its per-span check (:func:`write_diagnosis`, then
+    ``spans.csv``, ``sections.csv``, ``spans.png`` and the check's part of ``summary.md``)."""
+    write_diagnosis(line.run, paths, budget, with_unexplained=line.with_unexplained,
+                    n_unexplained=0 if line.with_unexplained is None else line.first_check.n_unexplained,
+                    extra_summary=spans_markdown(line))
+    line.check.spans.to_csv(paths.spans, index=False, float_format="%.6g")
+    line.check.sections.to_csv(paths.sections, index=False, float_format="%.6g")
+    spans_figure(line.check.spans, line.check.sections, paths.spans_figure, line.run.span_type, line.run.settings.fdr)

@@ -43,10 +43,12 @@ from .locate import Locate
 from .model import EffectSampler
 from .problem import Fit, JointProblem, refit, with_covariance
 from .settings import DiagnosisSettings
+from .span_check import SpanCheck, WLaw, check_spans, w_law
 from .refits import (CandidateTest, DiagnosisContext, base_moments_at, continue_refit, refit_and_test_all,
                      sandwich_leaders)
 
-__all__ = ["DiagnosisRun", "Step", "VERDICTS", "applicable_candidates", "diagnose", "make_sampler"]
+__all__ = ["DiagnosisRun", "LineDiagnosis", "Step", "VERDICTS", "applicable_candidates", "diagnose", "diagnose_line",
+           "final_w_law", "make_sampler"]
 
 VERDICTS = ("named", "ambiguous", "none_detected")
 _LOG = logging.getLogger(__name__)
@@ -281,3 +283,96 @@ def make_sampler(span_type: SpanType, catenary: Catenary, identification: Identi
                    dataclasses.replace(settings, n_samples=max(settings.n_samples, 500)), force_influence_m_n,
                    declared_force_n, order, None)
     return ctx.problem(tuple(effects)).likelihood.sampler
+
+
+def final_w_law(run: DiagnosisRun, catenary: Catenary, span_type: SpanType,
+                extra_covariance_m2: np.ndarray | None = None) -> WLaw:
+    """The law of W of a diagnosis' final model (its model sample's Gaussian, plus
+    ``extra_covariance_m2``: the data's measurement error the likelihood does not carry) and its
+    sensitivities at the fitted means (:func:`.span_check.w_law`)."""
+    problem, theta = run.final_problem, run.final.theta
+    value = problem.evaluate(theta)
+    if value.fit is None:
+        raise RuntimeError(f"{span_type.name}: the final model's J is not finite at its optimum ({value.status})")
+    means, sigmas = problem.laws(theta)
+    covariance = value.fit.chol @ value.fit.chol.T
+    if extra_covariance_m2 is not None:
+        covariance = covariance + np.asarray(extra_covariance_m2, dtype=float)
+    model = problem.likelihood.sampler.models.model(frozenset())
+    return w_law(model, means, sigmas, value.fit.mean, covariance)
+
+
+@dataclass
+class LineDiagnosis:
+    """A span type's diagnosis with its per-span check.
+
+    Attributes
+    ----------
+    run : DiagnosisRun
+        The verdicts that stand: those of the spans the final model explains when some are not.
+    check : SpanCheck
+        Every span against the final model of ``run`` (:mod:`.span_check`).
+    with_unexplained : DiagnosisRun or None
+        The diagnosis of every span, when unexplained spans were left out of ``run``.
+    first_check : SpanCheck or None
+        The check against the final model of ``with_unexplained``, which chose the spans left out.
+    """
+
+    run: DiagnosisRun
+    check: SpanCheck
+    with_unexplained: DiagnosisRun | None = None
+    first_check: SpanCheck | None = None
+
+    @property
+    def depends_on_unexplained(self) -> bool:
+        """Whether leaving the unexplained spans out changed the named effects."""
+        return self.with_unexplained is not None and self.with_unexplained.named != self.run.named
+
+
+def diagnose_line(span_type: SpanType, catenary: Catenary, data, places, identification: IdentificationSettings,
+                  settings: DiagnosisSettings, *, profile=None, extra_covariance_m2: np.ndarray | None = None,
+                  log: logging.Logger | None = None, **kwargs) -> LineDiagnosis:
+    """:func:`diagnose` every span of ``data``, then check each span against the final model; if
+    some are unexplained, diagnose again without them (a named effect must be carried by the
+    bulk of the spans) and check every span against that final model (docs/diagnosis.md).
+
+    Parameters
+    ----------
+    data : CorrectedData
+        The spans (:func:`catenary.identification.data.read_corrected`).
+    places : pandas.DataFrame
+        ``section_id``, ``start_chainage_m``, ``end_chainage_m`` of each row of ``data``
+        (:func:`catenary.identification.data.span_places`).
+    profile : pandas.DataFrame, optional
+        The spans' profile tests (:func:`.profile_check.profile_tests`).
+    extra_covariance_m2 : numpy.ndarray, optional
+        Measurement error of W the diagnosis' likelihood does not carry, added to the final law.
+    **kwargs
+        Passed to :func:`diagnose` (force influence, declared force, workers, spans left out).
+    """
+    log = log or _LOG
+    check_settings = settings.span_check()
+    spans = places.reset_index(drop=True).assign(span_id=np.asarray(data.span_id, dtype=str))
+    pairs = np.zeros((0, 2), dtype=int) if data.mast_pairs is None else data.mast_pairs
+
+    def checked(run: DiagnosisRun) -> SpanCheck:
+        law = final_w_law(run, catenary, span_type, extra_covariance_m2)
+        return check_spans(spans, data.w_m, law, profile, pairs, check_settings)
+
+    first = diagnose(span_type, catenary, data.w_m, identification, settings, mast_pairs=data.mast_pairs, log=log,
+                     **kwargs)
+    check = checked(first)
+    log.info("%s: %d of %d spans unexplained by the final model (FDR %.0f %%)%s", span_type.name,
+             check.n_unexplained, data.w_m.shape[0], 100 * settings.fdr,
+             ": " + ", ".join(check.spans.loc[check.unexplained, "span_id"]) if check.n_unexplained else "")
+    if check.n_unexplained == 0:
+        return LineDiagnosis(first, check)
+    bulk = data.without(check.unexplained, "unexplained by the final model")
+    log.info("%s: diagnosed again without the %d unexplained spans", span_type.name, check.n_unexplained)
+    n_left_out = kwargs.pop("n_left_out", 0) + check.n_unexplained
+    run = diagnose(span_type, catenary, bulk.w_m, identification, settings, mast_pairs=bulk.mast_pairs, log=log,
+                   n_left_out=n_left_out, **kwargs)
+    final = checked(run)
+    log.info("%s: against the bulk's final model, %d spans unexplained; named %s (with every span: %s)",
+             span_type.name, final.n_unexplained, run.named or "nothing", first.named or "nothing")
+    return LineDiagnosis(run, final, first, check)

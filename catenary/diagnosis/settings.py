@@ -19,8 +19,21 @@ from ..errors import ConfigError
 from ..identification.settings import IdentificationSettings
 from ..schema import check, merged_mapping
 from .candidates import CANDIDATES
+from .profile_check import ProfileSettings
+from .span_check import SpanCheckSettings
 
 __all__ = ["DiagnosisSettings"]
+
+
+def _span_check(block: Mapping[str, Any], raw: Mapping[str, Any]) -> SpanCheckSettings:
+    """``diagnosis.spans`` as :class:`SpanCheckSettings` (its profile keys in its ``profile``;
+    one seed for both, the profile's calibration offset by one)."""
+    profile_keys = {f.name for f in dataclasses.fields(ProfileSettings)}
+    profile = {k: v for k, v in block.items() if k in profile_keys and k != "seed"}
+    check_keys = {f.name for f in dataclasses.fields(SpanCheckSettings)} - {"profile", "fdr", "level"}
+    rest = {k: v for k, v in block.items() if k in check_keys}
+    return SpanCheckSettings(**rest, fdr=raw["fdr"], level=raw["level"],
+                             profile=ProfileSettings(**profile, seed=int(block.get("seed", 23)) + 1))
 
 
 @dataclass(frozen=True)
@@ -64,6 +77,13 @@ class DiagnosisSettings:
         in θ and ``ftol`` in J. The test needs Δℓ to about 0.1; at 0.1 and 0.01 every refit of
         the default campaign ended within 0.07 of its Δℓ at 0.01 and 0.001, with 26 % (N2) and
         39 % (N3) fewer evaluations of J (docs/diagnosis.md, "The refits").
+    fdr : float
+        False-discovery rate of the per-span check (:mod:`.span_check`).
+    later_stages_laws : {"without_unexplained", "all_spans"}
+        The laws the maintenance and contact-force stages use: identified without the spans the
+        final model does not explain, or with every span.
+    spans : SpanCheckSettings
+        The per-span check (``diagnosis.spans``; its ``fdr`` and ``level`` are this block's).
     """
 
     random_inputs: tuple[str, ...] = ("dropper_lengths_m", "system_height_m")
@@ -82,6 +102,9 @@ class DiagnosisSettings:
     optimiser: str = "fisher-scoring"
     xtol: float = 0.1
     ftol: float = 0.01
+    fdr: float = 0.05
+    later_stages_laws: str = "without_unexplained"
+    spans: SpanCheckSettings = dataclasses.field(default_factory=SpanCheckSettings)
 
     def __post_init__(self) -> None:
         check(self.as_mapping(), "config", "diagnosis")
@@ -105,7 +128,8 @@ class DiagnosisSettings:
                    candidates=tuple(raw["candidates"]), level=raw["level"], bic_margin=raw["bic_margin"],
                    max_steps=raw["max_steps"], power=raw["power"], n_samples=raw["n_samples"], seed=raw["seed"],
                    bootstrap_replicates=raw["bootstrap_replicates"], max_evaluations=raw["max_evaluations"],
-                   optimiser=raw["optimiser"], xtol=raw["xtol"], ftol=raw["ftol"])
+                   optimiser=raw["optimiser"], xtol=raw["xtol"], ftol=raw["ftol"], fdr=raw["fdr"],
+                   later_stages_laws=raw["later_stages_laws"], spans=_span_check(raw["spans"], raw))
 
     def as_mapping(self) -> dict[str, Any]:
         """The settings as the config block ``diagnosis`` (the schema's layout)."""
@@ -114,7 +138,15 @@ class DiagnosisSettings:
                 "candidates": list(self.candidates), "level": self.level, "bic_margin": self.bic_margin,
                 "max_steps": self.max_steps, "power": self.power, "n_samples": self.n_samples, "seed": self.seed,
                 "bootstrap_replicates": self.bootstrap_replicates, "max_evaluations": self.max_evaluations,
-                "optimiser": self.optimiser, "xtol": self.xtol, "ftol": self.ftol}
+                "optimiser": self.optimiser, "xtol": self.xtol, "ftol": self.ftol, "fdr": self.fdr,
+                "later_stages_laws": self.later_stages_laws,
+                "spans": {k: v for k, v in {**dataclasses.asdict(self.spans.profile),
+                                            **dataclasses.asdict(self.spans)}.items()
+                          if k not in ("fdr", "level", "profile", "seed")} | {"seed": self.spans.seed}}
+
+    def span_check(self) -> SpanCheckSettings:
+        """The per-span check's settings with this block's ``fdr`` and ``level``."""
+        return dataclasses.replace(self.spans, fdr=self.fdr, level=self.level)
 
     def base(self, identification: IdentificationSettings) -> IdentificationSettings:
         """The identification settings of the starting model's base."""

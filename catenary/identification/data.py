@@ -20,7 +20,7 @@ from ..errors import InputError
 from ..parquet import read_table
 from .dependence import adjacent_span_pairs
 
-__all__ = ["CorrectedData", "read_corrected"]
+__all__ = ["CorrectedData", "read_corrected", "span_places"]
 
 _REQUIRED = ("span_id", "converged")
 _ADJACENCY = ("section_id", "start_chainage_m", "end_chainage_m")
@@ -50,6 +50,21 @@ class CorrectedData:
     left_out: list[tuple[str, str]]
     mast_pairs: np.ndarray | None = None
     n_runs: np.ndarray | None = None
+
+    def without(self, leave_out: np.ndarray, reason: str) -> "CorrectedData":
+        """The same data with the rows where ``leave_out`` is true left out (their span ids and
+        ``reason`` added to ``left_out``), the pairs of spans sharing a mast renumbered."""
+        drop = np.asarray(leave_out, dtype=bool)
+        keep = np.flatnonzero(~drop)
+        pairs = None
+        if self.mast_pairs is not None:
+            new = np.full(drop.size, -1)
+            new[keep] = np.arange(keep.size)
+            p = new[np.asarray(self.mast_pairs, dtype=int)].reshape(-1, 2)
+            pairs = p[(p >= 0).all(axis=1)]
+        return CorrectedData(w_m=self.w_m[keep], span_id=self.span_id[keep],
+                             left_out=self.left_out + [(str(s), reason) for s in self.span_id[drop]],
+                             mast_pairs=pairs, n_runs=None if self.n_runs is None else self.n_runs[keep])
 
 
 #: Largest distance between the registered positions of one mast as two spans of several runs
@@ -126,3 +141,12 @@ def read_corrected(path: str | Path, span_type: SpanType, flagged: dict[str, str
                                     tolerance_m=_SHARED_MAST_TOLERANCE_M if several else 1e-3)
     return CorrectedData(w_m=mean_w, span_id=np.asarray(order, dtype=str), left_out=left_out, mast_pairs=pairs,
                          n_runs=n_runs)
+
+
+def span_places(corrected: pd.DataFrame, span_ids: np.ndarray) -> pd.DataFrame:
+    """Where each span lies, in the order of ``span_ids``: ``section_id``, ``start_chainage_m``,
+    ``end_chainage_m`` from the correction's table (the first run's; NaN or missing where the table
+    does not say)."""
+    cols = [c for c in _ADJACENCY if c in corrected.columns]
+    places = corrected.groupby("span_id", sort=False)[cols].first() if cols else pd.DataFrame(index=span_ids)
+    return places.reindex(span_ids).reindex(columns=list(_ADJACENCY))

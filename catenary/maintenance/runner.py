@@ -20,7 +20,7 @@ from ..errors import InputError
 from ..fast import SAMPLING_DEGREE, FastSpanModel
 from ..identification.band import band_abscissae
 from ..identification.design import default_inputs
-from ..identification.data import CorrectedData
+from ..identification.data import CorrectedData, span_places
 from ..identification.settings import IdentificationSettings
 from ..model_error.propagation import SpanShifts
 from .population import PopulationBands, population_bands
@@ -117,12 +117,6 @@ class MaintenanceRun:
     bands: PopulationBands | None = None
 
 
-def _span_places(corrected: pd.DataFrame, span_ids: np.ndarray) -> pd.DataFrame:
-    cols = [c for c in ("section_id", "start_chainage_m", "end_chainage_m") if c in corrected.columns]
-    places = corrected.groupby("span_id", sort=False)[cols].first() if cols else pd.DataFrame(index=span_ids)
-    return places.reindex(span_ids).reindex(columns=["section_id", "start_chainage_m", "end_chainage_m"])
-
-
 def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData, corrected: pd.DataFrame,
                     s_opt: pd.DataFrame, identification: IdentificationSettings, settings: MaintenanceSettings, *,
                     one_run_m2: np.ndarray | None = None, w_shifts: SpanShifts | None = None) -> MaintenanceRun:
@@ -162,7 +156,7 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
                                  x_m=band_abscissae(span_type, identification.band_n_points),
                                  level=identification.band_level, n_prior_samples=identification.band_n_samples,
                                  design_method=identification.design, seed=identification.seed + 1)
-    places = _span_places(corrected, data.span_id)
+    places = span_places(corrected, data.span_id)
     k, d = post.mean.shape
     table = pd.DataFrame({
         "span_id": np.repeat(data.span_id.astype(str), d),

@@ -4,9 +4,12 @@
 rule diagnose:
     """Discrepancy workflow of one span type: locate where the identification model and the
     corrected W disagree, name the missing effect among the candidates, add it, show the gap
-    shrink (docs/diagnosis.md)."""
+    shrink; then check every span (W and its whole profile) and section against the final model
+    and diagnose again without the spans it does not explain (docs/diagnosis.md)."""
     input:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
+        profiles=f"{RESULTS}/{{span_type}}/corrected_profiles.parquet",
+        model_error=f"{RESULTS}/correction/model_error.parquet",
         model_error_budget=f"{RESULTS}/correction/model_error_budget.csv",
         catenary=config["catenary"],
         pantographs=config["pantographs"],
@@ -19,6 +22,9 @@ rule diagnose:
         qq=reported(f"{RESULTS}/{{span_type}}/diagnosis/mahalanobis_qq.png", "mahalanobis_qq", DIAGNOSIS, "Mahalanobis QQ"),
         scores=reported(f"{RESULTS}/{{span_type}}/diagnosis/score_screen.png", "score_screen", DIAGNOSIS, "Score screen"),
         summary=f"{RESULTS}/{{span_type}}/diagnosis/summary.md",
+        spans=reported(f"{RESULTS}/{{span_type}}/diagnosis/spans.csv", "diagnosis_spans", DIAGNOSIS, "Every span: explained or not"),
+        sections=f"{RESULTS}/{{span_type}}/diagnosis/sections.csv",
+        spans_figure=reported(f"{RESULTS}/{{span_type}}/diagnosis/spans.png", "diagnosis_spans_figure", DIAGNOSIS, "Unexplained spans along the line"),
     params:
         identification=span_type_settings("identification"),
         diagnosis=span_type_settings("diagnosis"),
