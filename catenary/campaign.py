@@ -40,6 +40,8 @@ def section_model(line: Line, k: int, catenary: Catenary) -> tuple[Section, np.n
     span_type = line.spans["span_type"][spans[0]]
     lengths = line.params.dropper_lengths_m[spans]
     n_d = int(np.sum(~np.isnan(lengths[0])))
+    starts = np.repeat((x - x[0])[:-1, None], line.params.cw_point_mass_kg.shape[1], axis=1)
+    carried = line.params.cw_point_mass_kg[spans] > 0
     return Section(
         span_lengths_m=np.diff(x),
         dropper_span=np.repeat(np.arange(spans.size), n_d),
@@ -51,6 +53,8 @@ def section_model(line: Line, k: int, catenary: Catenary) -> tuple[Section, np.n
         messenger_tension_n=line.params.messenger_tension_n[spans],
         dropper_offset_m=np.repeat(line.params.cw_offset_m[spans], n_d),
         cw_mass_factor=1.0 - line.params.cw_wear_fraction[spans],
+        cw_point_mass_x_m=(starts + line.params.cw_point_mass_x_m[spans])[carried],
+        cw_point_mass_kg=line.params.cw_point_mass_kg[spans][carried],
     ), spans
 
 
@@ -200,6 +204,13 @@ def _truth_rows(line, spans, section, offset, static_w, dynamic_w, force) -> pd.
         "cw_wear_fraction": p.cw_wear_fraction[spans],
         "measuring_force_n": np.full(spans.size, force),
     }
+    if p.cw_point_mass_kg.shape[1]:
+        # Concentrated masses on the CW (an effect of one's own): each span's total and where its
+        # largest one is (NaN without any).
+        masses = p.cw_point_mass_kg[spans]
+        rows["cw_point_mass_kg"] = masses.sum(axis=1)
+        rows["cw_point_mass_x_m"] = np.where(masses.max(axis=1) > 0, p.cw_point_mass_x_m[spans][
+            np.arange(spans.size), masses.argmax(axis=1)], np.nan)
     n_d = static_w.shape[1]
     for i in range(n_d):
         rows[f"dropper_{i + 1}_length_m"] = p.dropper_lengths_m[spans, i]
@@ -239,10 +250,10 @@ def gather_recording(parts: list[pd.DataFrame], spec: TruthSpec) -> pd.DataFrame
 
 def truth_schema(columns) -> pa.Schema:
     """Arrow schema of the truth tables: identifiers as strings, ``direction`` int64, every other
-    column float64."""
+    column float64 (``cw_point_mass_x_m`` null on a span without a concentrated mass)."""
     text = {"span_id", "section_id", "span_type", "run_id"}
     return pa.schema([pa.field(c, pa.string() if c in text else pa.int64() if c == "direction" else pa.float64(),
-                               nullable=False) for c in columns])
+                               nullable=c == "cw_point_mass_x_m") for c in columns])
 
 
 def write_recording_csv(recording: pd.DataFrame, path) -> None:

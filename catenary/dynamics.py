@@ -134,6 +134,7 @@ class CatenaryDynamics:
         half = 0.5 * d.mass_per_length_kg_m * section.dropper_lengths_m
         np.add.at(lumped, static.dropper_cw_dof, d.clamp_mass_contact_kg + half)
         np.add.at(lumped, static.dropper_mw_dof, d.clamp_mass_messenger_kg + half)
+        np.add.at(lumped, DOFS_PER_NODE * mesh.cw_point_mass_nodes + CW, section.cw_point_mass_kg)
         if sa.stiffness_n_m is not None:
             lumped[cw_mast] += sa.mass_kg
         mass = (mass + sp.diags(lumped)).tocsr()

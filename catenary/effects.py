@@ -57,18 +57,38 @@ mast, per dropper, or none.
     maintenance stage looks for it, span by span (:mod:`catenary.maintenance`).
 
 All magnitudes are SI. Effects are applied in the order listed in the truth file.
+
+Effects of your own
+-------------------
+A user's effect is a function of the same form in a module of the user's own, listed in the
+config (``effects_modules``; a campaign lists its planting code in its truth file's
+``effects_modules``). The module defines ``EFFECTS``, a list of :class:`Effect` with their
+:class:`EffectParameter` declarations (bounds, scale, realistic size, unit); :func:`load_modules`
+registers them beside the built-ins. Besides every parameter above, an effect can act where real
+ones do between the droppers: :meth:`SpanParameters.add_cw_point_masses` clamps concentrated
+masses on the CW (connectors, splices, section insulators), which the FE models carry (the
+campaign's measuring pass, the per-span tests of :mod:`catenary.diagnosis.span_effects`). An
+effect of ``scope="span"`` is a local anomaly: the diagnosis fits its magnitudes span by span on
+the spans the final model does not explain; one of ``scope="population"`` is tested on the law of
+W like the built-ins (the fast model then must carry what it changes: point masses it does not).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import inspect
-from dataclasses import dataclass
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 from scipy import special
 
-__all__ = ["DRAW_KINDS", "EFFECTS", "Effect", "SpanParameters", "draws_for", "plant"]
+from .errors import ConfigError
+
+__all__ = ["DRAW_KINDS", "EFFECTS", "PARAMETER_KINDS", "SCOPES", "Effect", "EffectParameter", "SpanParameters",
+           "draws_for", "load_modules", "plant"]
 
 #: What one standard normal draw of an effect belongs to.
 DRAW_KINDS = ("span", "section", "mast", "dropper")
@@ -105,6 +125,13 @@ class SpanParameters:
         Raise of the CW (and the MW with it) at each mast's steady arm above its drawn height [m].
     cw_wear_fraction : numpy.ndarray
         Fraction of each span's CW section lost by wear (0: new wire).
+    cw_point_mass_x_m, cw_point_mass_kg : numpy.ndarray
+        (n_spans, k) concentrated masses clamped on each span's CW: position from the span's left
+        mast [m] and mass [kg] (0: none; k = 0 without any, :meth:`add_cw_point_masses`).
+    span_length_m : numpy.ndarray or None
+        Length of each span [m] (where an effect places something along it).
+    dropper_x_m : numpy.ndarray or None
+        (n_spans, n_droppers) design positions of each span's droppers from its left mast [m].
     """
 
     dropper_lengths_m: np.ndarray
@@ -120,12 +147,38 @@ class SpanParameters:
     left_mast: np.ndarray
     mast_cw_height_offset_m: np.ndarray
     cw_wear_fraction: np.ndarray
+    cw_point_mass_x_m: np.ndarray | None = None
+    cw_point_mass_kg: np.ndarray | None = None
+    span_length_m: np.ndarray | None = None
+    dropper_x_m: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = self.n_spans
+        if self.cw_point_mass_kg is None or self.cw_point_mass_x_m is None:
+            self.cw_point_mass_x_m = np.zeros((n, 0))
+            self.cw_point_mass_kg = np.zeros((n, 0))
+
+    def add_cw_point_masses(self, x_m: np.ndarray, mass_kg: np.ndarray) -> None:
+        """Clamp one more concentrated mass on each span's CW: at ``x_m`` from its left mast [m],
+        of ``mass_kg`` [kg] (0 where a span gets none); arrays of one value per span."""
+        n = self.n_spans
+        x = np.broadcast_to(np.asarray(x_m, dtype=float), (n,))
+        m = np.broadcast_to(np.asarray(mass_kg, dtype=float), (n,))
+        if np.any(~np.isfinite(m)) or np.any(m < 0) or np.any(~np.isfinite(x[m > 0])):
+            raise ValueError("add_cw_point_masses: expected finite masses ≥ 0 [kg] at finite positions [m]")
+        self.cw_point_mass_x_m = np.column_stack([self.cw_point_mass_x_m, np.where(m > 0, x, 0.0)])
+        self.cw_point_mass_kg = np.column_stack([self.cw_point_mass_kg, m])
+
+    @property
+    def has_point_masses(self) -> bool:
+        return bool(np.any(self.cw_point_mass_kg > 0))
 
     @classmethod
     def independent_spans(cls, dropper_lengths_m: np.ndarray, messenger_tension_n: np.ndarray,
                           system_height_left_m: np.ndarray, system_height_right_m: np.ndarray, *,
                           system_height_mean_m: float, contact_tension_n: float,
-                          measuring_force_n: float) -> "SpanParameters":
+                          measuring_force_n: float, span_length_m: float | None = None,
+                          dropper_x_m: np.ndarray | None = None) -> "SpanParameters":
         """N spans each in a section of its own, with masts of its own (a model sample)."""
         lengths = np.asarray(dropper_lengths_m, dtype=float)
         n = lengths.shape[0]
@@ -135,7 +188,9 @@ class SpanParameters:
                    messenger_tension_n=np.asarray(messenger_tension_n, dtype=float),
                    contact_tension_n=np.full(n, float(contact_tension_n)), section_index=np.arange(n),
                    measuring_force_n=float(measuring_force_n), creep_offset_m=np.zeros(n), cw_offset_m=np.zeros(n),
-                   left_mast=2 * np.arange(n), mast_cw_height_offset_m=np.zeros(2 * n), cw_wear_fraction=np.zeros(n))
+                   left_mast=2 * np.arange(n), mast_cw_height_offset_m=np.zeros(2 * n), cw_wear_fraction=np.zeros(n),
+                   span_length_m=None if span_length_m is None else np.full(n, float(span_length_m)),
+                   dropper_x_m=None if dropper_x_m is None else np.tile(np.asarray(dropper_x_m, dtype=float), (n, 1)))
 
     @property
     def n_spans(self) -> int:
@@ -208,6 +263,54 @@ def dropper_faults(p: SpanParameters, z: np.ndarray, *, fraction: float, min_m: 
     p.dropper_lengths_m = p.dropper_lengths_m + np.where(faulty, np.where(v < 0.5, size, -size), 0.0)
 
 
+#: Kinds of an effect's parameter: a spread (σ ≥ 0, null on the boundary), a signed shift (null
+#: 0 inside), a position along the span (no null: read only where the effect is not null).
+PARAMETER_KINDS = ("spread", "shift", "position")
+#: Where the diagnosis tests an effect: on the law of W of the whole population, or span by span.
+SCOPES = ("population", "span")
+
+
+@dataclass(frozen=True)
+class EffectParameter:
+    """One magnitude of an effect, as the diagnosis fits and reports it.
+
+    Attributes
+    ----------
+    name : str
+        The magnitude's keyword in the effect's function (``std_n``, ``mean_m``…).
+    kind : {"spread", "shift", "position"}
+    bounds : (float, float)
+        Allowed range [SI]; the null 0 lies inside (a spread's on its lower edge) unless a position.
+    scale : float
+        Typical size [SI]: the optimiser's unit and the finite-difference scale.
+    realistic : float
+        A realistic magnitude on a high-speed line [SI] (the size the validation plants).
+    unit : str
+        Unit for reports (``N``, ``m``, ``kg``, ``-``).
+    label : str
+        What it is, in words, for reports.
+    """
+
+    name: str
+    kind: str
+    bounds: tuple[float, float]
+    scale: float
+    realistic: float
+    unit: str
+    label: str
+
+    def __post_init__(self):
+        if self.kind not in PARAMETER_KINDS:
+            raise ValueError(f"{self.name}: kind must be one of {PARAMETER_KINDS}, got {self.kind!r}")
+        lo, hi = self.bounds
+        if not lo < hi:
+            raise ValueError(f"{self.name}: bounds {self.bounds} must be ordered")
+        if self.kind != "position" and (not (lo <= 0.0 <= hi) or (self.kind == "spread" and lo != 0.0)):
+            raise ValueError(f"{self.name}: bounds {self.bounds} must contain the null 0 (a spread's as lower bound)")
+        if not self.scale > 0:
+            raise ValueError(f"{self.name}: scale must be > 0, got {self.scale}")
+
+
 @dataclass(frozen=True)
 class Effect:
     """A physical effect: its function, the draws it takes and its magnitudes.
@@ -217,14 +320,40 @@ class Effect:
     name : str
     apply : callable
         ``apply(p, z, **magnitudes)``: changes the :class:`SpanParameters` ``p`` in place;
-        ``z`` holds standard normal scores, one per span, section or mast (``draw``), or None.
+        ``z`` holds standard normal scores, ``n_draws`` per span, section, mast or dropper
+        (``draw``; shape (items,) for one, (items, n_draws) for more), or None.
     draw : str or None
         One of :data:`DRAW_KINDS`, or None for an effect without randomness.
+    n_draws : int
+        Standard normal scores per item of ``draw``.
+    parameters : tuple of EffectParameter
+        How the diagnosis fits the magnitudes (a user's effect declares them here; the built-ins'
+        are :data:`catenary.diagnosis.candidates.CANDIDATES`).
+    scope : {"population", "span"}
+        Where the diagnosis tests it (:data:`SCOPES`).
+    summary : str
+        One line of physics for reports.
     """
 
     name: str
     apply: Callable[..., None]
     draw: str | None
+    n_draws: int = 1
+    parameters: tuple[EffectParameter, ...] = field(default=())
+    scope: str = "population"
+    summary: str = ""
+
+    def __post_init__(self):
+        if self.draw not in (*DRAW_KINDS, None):
+            raise ValueError(f"effect {self.name}: draw must be one of {DRAW_KINDS} or None, got {self.draw!r}")
+        if self.scope not in SCOPES:
+            raise ValueError(f"effect {self.name}: scope must be one of {SCOPES}, got {self.scope!r}")
+        if int(self.n_draws) != self.n_draws or self.n_draws < 1:
+            raise ValueError(f"effect {self.name}: n_draws must be an integer ≥ 1, got {self.n_draws!r}")
+        declared = {p.name for p in self.parameters}
+        unknown = declared - set(self.magnitudes)
+        if unknown:
+            raise ValueError(f"effect {self.name}: parameters {sorted(unknown)} are not keywords of its function")
 
     @property
     def magnitudes(self) -> tuple[str, ...]:
@@ -253,7 +382,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
 
 
 def draws_for(kind: str | None, p: SpanParameters) -> int:
-    """Number of standard normal draws an effect of draw ``kind`` takes for ``p``."""
+    """Number of items an effect of draw ``kind`` takes standard normal draws for in ``p``."""
     return {"span": p.n_spans, "section": p.n_sections, "mast": p.n_masts,
             "dropper": int(p.dropper_lengths_m.size), None: 0}[kind]
 
@@ -261,5 +390,59 @@ def draws_for(kind: str | None, p: SpanParameters) -> int:
 def plant(name: str, p: SpanParameters, rng: np.random.Generator, magnitudes: dict[str, float]) -> None:
     """Draw the effect's standard normal scores from ``rng`` and apply it (the campaign's way)."""
     effect = EFFECTS[name]
-    z = rng.standard_normal(draws_for(effect.draw, p)) if effect.draw else None
+    z = None
+    if effect.draw:
+        items = draws_for(effect.draw, p)
+        z = rng.standard_normal(items) if effect.n_draws == 1 else rng.standard_normal((items, effect.n_draws))
     effect.apply(p, z, **magnitudes)
+
+
+_LOADED: dict[str, tuple[str, ...]] = {}
+
+
+def load_modules(paths, where: str = "effects_modules") -> tuple[str, ...]:
+    """Register the effects of users' modules (their ``EFFECTS`` lists) beside the built-ins.
+
+    Parameters
+    ----------
+    paths : iterable of str or pathlib.Path
+        Python files, each defining ``EFFECTS``: a list of :class:`Effect`.
+    where : str
+        The config key that lists them (for messages).
+
+    Returns
+    -------
+    tuple of str
+        The names registered (a module loaded before registers nothing again).
+
+    Raises
+    ------
+    ConfigError
+        A file missing, without ``EFFECTS``, or naming an effect already known.
+    """
+    out: list[str] = []
+    for i, raw in enumerate(paths or []):
+        path = Path(raw).resolve()
+        if str(path) in _LOADED:
+            out += _LOADED[str(path)]
+            continue
+        if not path.is_file():
+            raise ConfigError(f"{where}[{i}]: {raw}: no such file; expected a Python module defining EFFECTS")
+        name = f"catenary_user_effects_{len(_LOADED)}_{path.stem}"
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+        effects = getattr(module, "EFFECTS", None)
+        if not isinstance(effects, (list, tuple)) or not all(isinstance(e, Effect) for e in effects):
+            raise ConfigError(f"{where}[{i}]: {raw}: expected a module-level list EFFECTS of catenary.effects.Effect")
+        names = []
+        for effect in effects:
+            if effect.name in EFFECTS:
+                raise ConfigError(f"{where}[{i}]: {raw}: effect {effect.name!r} is known already "
+                                  f"({', '.join(EFFECTS)})")
+            EFFECTS[effect.name] = effect
+            names.append(effect.name)
+        _LOADED[str(path)] = tuple(names)
+        out += names
+    return tuple(out)

@@ -121,9 +121,37 @@ def diagnosis_lines(findings: pd.DataFrame | None) -> list[str]:
     return lines + [""]
 
 
+def unexplained_lines(spans: pd.DataFrame | None, sections: pd.DataFrame | None) -> list[str]:
+    """How many spans the final model does not explain, and where (the diagnosis' per-span check)."""
+    if spans is None:
+        return []
+    flag = spans["unexplained"].astype(str).str.lower() == "true"
+    by = spans["explained_by"].fillna("").astype(str) if "explained_by" in spans else pd.Series("", index=spans.index)
+    if not (flag | (by != "")).any():
+        return [f"**Spans the model does not explain:** none of {len(spans)} (W at the droppers and the whole "
+                "profile between them, false-discovery rate per diagnosis.fdr).", ""]
+    lines = [f"**Spans the model does not explain:** {int(flag.sum())} of {len(spans)}"
+             + (f"; {int((by != '').sum())} more explained only by an effect of your own" if (by != "").any() else "")
+             + ". No law, named effect or maintenance action is drawn from them:", ""]
+    groups = sections[sections["unexplained"].astype(str).str.lower() == "true"] if sections is not None else None
+    for g in (groups.itertuples() if groups is not None else []):
+        what = (f"a T_MW offset of {_number(g.messenger_tension_offset_n, 4)} ± "
+                f"{_number(g.messenger_tension_offset_se_n, 2)} N — inspect its tensioning device"
+                if str(g.tension_offset).lower() == "true" else "a shared departure — inspect the section")
+        lines.append(f"- section {g.section_id}: its {g.n_spans} spans depart together, {what}")
+    alone = spans[(flag | (by != "")) & (spans["group"].fillna("").astype(str) == "")]
+    for r in alone.itertuples():
+        where = (f"at chainage {_number(r.peak_chainage_m, 7)} m ({_number(r.peak_size_mm, 2)} mm)"
+                 if np.isfinite(r.peak_chainage_m) else "at its droppers")
+        own = f", explained by {r.explained_by}" if getattr(r, "explained_by", "") else ""
+        lines.append(f"- span {r.span_id}: its profile departs {where}{own}")
+    return lines + [""]
+
+
 def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.DataFrame,
                s_opt: dict[str, pd.DataFrame], findings: dict[str, pd.DataFrame | None],
-               model_error: dict[str, pd.DataFrame | None] | None = None) -> str:
+               model_error: dict[str, pd.DataFrame | None] | None = None,
+               checks: dict[str, tuple[pd.DataFrame, pd.DataFrame] | None] | None = None) -> str:
     """The report's front page (reStructuredText).
 
     Parameters
@@ -137,6 +165,8 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
         the diagnosis was not part of the run).
     model_error : dict, optional
         Per span type: its ``identification/model_error.csv`` (None or empty: not measured).
+    checks : dict, optional
+        Per span type: its ``diagnosis/spans.csv`` and ``sections.csv`` (None: not run).
     """
     lines = [intro.rstrip(), ""]
     lines += _heading("Summary per span type", "-")
@@ -149,6 +179,7 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
         lines += correction_lines(correction_summary, span_type)
         lines += identification_lines(s_opt[span_type], (model_error or {}).get(span_type))
         lines += diagnosis_lines(findings.get(span_type))
+        lines += unexplained_lines(*((checks or {}).get(span_type) or (None, None)))
     text = "\n".join(lines) + "\n"
     for mark in _JINJA:
         text = text.replace(mark, " ".join(mark))
@@ -158,7 +189,8 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
 def write_front_page(path: str | Path, intro_path: str | Path, spans_report_path: str | Path,
                      correction_summary_path: str | Path, s_opt_paths: dict[str, str],
                      findings_paths: dict[str, str | None],
-                     model_error_paths: dict[str, str | None] | None = None) -> Path:
+                     model_error_paths: dict[str, str | None] | None = None,
+                     check_paths: dict[str, tuple[str, str] | None] | None = None) -> Path:
     """Read the pipeline's outputs, write :func:`front_page` to ``path``."""
     text = front_page(
         Path(intro_path).read_text(encoding="utf-8"),
@@ -167,6 +199,10 @@ def write_front_page(path: str | Path, intro_path: str | Path, spans_report_path
         {t: pd.read_csv(p) for t, p in s_opt_paths.items()},
         {t: (pd.read_csv(p) if p else None) for t, p in findings_paths.items()},
         {t: (pd.read_csv(p) if p else None) for t, p in (model_error_paths or {}).items()},
+        {t: ((pd.read_csv(p[0], dtype={"span_id": str, "section_id": str, "group": str, "explained_by": str},
+                          keep_default_na=False, na_values={c: [""] for c in ("peak_chainage_m", "peak_size_mm")}),
+              pd.read_csv(p[1], dtype={"section_id": str})) if p else None)
+         for t, p in (check_paths or {}).items()},
     )
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

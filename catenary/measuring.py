@@ -159,11 +159,6 @@ def force_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantogr
     return (w(f0 + step_n) - w(f0 - step_n)) / (2.0 * step_n)
 
 
-#: Droppers of the span the car leaves before it enters the central one whose static CW moves the
-#: central span's measured profile enough to count (the pantograph's motion carries over a mast).
-CARRY_OVER_DROPPERS = 6
-
-
 def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,
                       x_m: np.ndarray, mode: str = "dynamic", time_step_s: float | None = None,
                       direction: int = 1, neighbours: int = 2, step_m: float = 1e-3) -> np.ndarray:
@@ -176,10 +171,8 @@ def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Panto
     the hats of a tensioned wire held at those points; the pass adds the pantograph's dynamic
     response to each change (≈ 0.15–0.3 of it between the droppers on N2 at 40 km/h). They are
     the freedoms a correction stopped within its tolerance leaves in the measured profile
-    (:mod:`catenary.diagnosis.profile_check`). The last :data:`CARRY_OVER_DROPPERS` droppers of
-    the span the car comes from move it too, through the pantograph's motion (≈ 0.04–0.09 of
-    their change at N2's first droppers). Forward differences: the pass is linear in the static
-    CW while every dropper stays taut and the pantograph in contact.
+    (:mod:`catenary.diagnosis.profile_check`). Forward differences: the pass is linear in the
+    static CW while every dropper stays taut and the pantograph in contact.
 
     Parameters
     ----------
@@ -190,9 +183,8 @@ def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Panto
 
     Returns
     -------
-    numpy.ndarray, shape (len(x_m), n_droppers + 2 + CARRY_OVER_DROPPERS)
-        Columns: the droppers in order, the left and the right mast, then the previous span's
-        droppers from the farthest to the nearest.
+    numpy.ndarray, shape (len(x_m), n_droppers + 2)
+        Columns: the droppers in order, then the left and the right mast.
     """
     lengths = nominal_dropper_lengths(span_type, catenary).dropper_lengths_m
     section = uniform_section(span_type, 2 * neighbours + 1, lengths)
@@ -211,10 +203,6 @@ def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Panto
     heights = StaticModel(section, catenary).solve().cw_height_at(section.dropper_chainage_m)
     n = span_type.n_droppers
     columns = []
-    k = CARRY_OVER_DROPPERS
-    previous = (range((neighbours - 1) * n + n - k, neighbours * n) if direction == 1
-                else range((neighbours + 2) * n - 1 - (n - k), (neighbours + 1) * n - 1, -1))
-
     def raised_dropper(i: int) -> np.ndarray:
         target = heights.copy()
         target[i] += step_m
@@ -226,5 +214,5 @@ def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Panto
         support[mast] += step_m
         raised = section.with_cw_support_heights(support)
         columns.append((run(dropper_lengths_for_cw_heights(raised, catenary, heights).section) - base) / step_m)
-    columns += [raised_dropper(i) for i in previous]
     return np.column_stack(columns)
+

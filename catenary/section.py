@@ -11,7 +11,7 @@ W is measured) and has the unstretched length ``dropper_lengths_m[i]``. Its CW c
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -82,6 +82,10 @@ class Section:
         CW mass per length of each span as a fraction of the catenary's (one value, or one per
         span; ``1 − ε`` for a wire worn by a fraction ε of its section: the
         ``contact_wire_wear`` effect). Default 1.
+    cw_point_mass_x_m, cw_point_mass_kg : numpy.ndarray
+        Concentrated masses clamped on the CW (connectors, splices, section insulators): their
+        chainages from the section start [m] and masses [kg] (default none). The mesh has a node
+        at each; they weigh on the CW statically and move with it dynamically.
     """
 
     span_lengths_m: np.ndarray
@@ -94,6 +98,8 @@ class Section:
     messenger_tension_n: float | np.ndarray
     dropper_offset_m: float | np.ndarray = 0.0
     cw_mass_factor: float | np.ndarray = 1.0
+    cw_point_mass_x_m: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cw_point_mass_kg: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __post_init__(self) -> None:
         for name in ("span_lengths_m", "dropper_x_m", "dropper_lengths_m",
@@ -129,6 +135,19 @@ class Section:
         if np.any(~np.isfinite(factor)) or np.any(factor <= 0):
             raise ConfigError(f"cw_mass_factor: expected factors > 0, got {factor}")
         object.__setattr__(self, "cw_mass_factor", float(factor) if factor.ndim == 0 else factor)
+        px = np.atleast_1d(np.asarray(self.cw_point_mass_x_m, dtype=float))
+        pm = np.atleast_1d(np.asarray(self.cw_point_mass_kg, dtype=float))
+        if px.shape != pm.shape or px.ndim != 1:
+            raise ConfigError(f"cw_point_mass_x_m, cw_point_mass_kg: expected two arrays of one length, got shapes "
+                              f"{px.shape} and {pm.shape}")
+        total = float(np.sum(self.span_lengths_m))
+        if np.any(~np.isfinite(px)) or np.any(px <= 0) or np.any(px >= total) or np.any(~np.isfinite(pm)) \
+                or np.any(pm < 0):
+            raise ConfigError(f"cw point masses: expected chainages inside the section (0, {total}) m and masses "
+                              f"≥ 0 kg, got {px} m, {pm} kg")
+        keep = pm > 0
+        object.__setattr__(self, "cw_point_mass_x_m", px[keep])
+        object.__setattr__(self, "cw_point_mass_kg", pm[keep])
         for name in ("contact_tension_n", "messenger_tension_n"):
             value = np.asarray(getattr(self, name), dtype=float)
             if value.ndim == 0:
@@ -255,6 +274,8 @@ class Section:
             messenger_tension_n=flip(self.messenger_tension_n),
             dropper_offset_m=-self.dropper_offset_m[::-1],
             cw_mass_factor=flip(self.cw_mass_factor),
+            cw_point_mass_x_m=float(np.sum(self.span_lengths_m)) - self.cw_point_mass_x_m[::-1],
+            cw_point_mass_kg=self.cw_point_mass_kg[::-1].copy(),
         )
 
     def with_tensions(self, *, contact_tension_n: float | None = None,
@@ -334,6 +355,8 @@ class Mesh:
         Node index of each dropper's CW clamp (equal to ``dropper_nodes`` for vertical droppers).
     element_span : numpy.ndarray
         Span index of each element.
+    cw_point_mass_nodes : numpy.ndarray
+        Node index of each concentrated mass on the CW.
     """
 
     x_m: np.ndarray
@@ -341,6 +364,7 @@ class Mesh:
     dropper_nodes: np.ndarray
     element_span: np.ndarray
     cw_clamp_nodes: np.ndarray
+    cw_point_mass_nodes: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     @property
     def n_nodes(self) -> int:
@@ -364,7 +388,8 @@ def build_mesh(section: Section, max_element_length_m: float) -> Mesh:
     """Mesh with a node at every mast and dropper and elements no longer than the bound [m]."""
     if max_element_length_m <= 0:
         raise ConfigError(f"max_element_length_m: expected > 0, got {max_element_length_m}")
-    key = np.concatenate([section.mast_chainage_m, section.dropper_chainage_m, section.cw_clamp_chainage_m])
+    key = np.concatenate([section.mast_chainage_m, section.dropper_chainage_m, section.cw_clamp_chainage_m,
+                          section.cw_point_mass_x_m])
     key = np.unique(np.round(key, 9))
     gaps = np.diff(key)
     n_sub = np.maximum(1, np.ceil(gaps / max_element_length_m - 1e-9).astype(int))
@@ -377,4 +402,5 @@ def build_mesh(section: Section, max_element_length_m: float) -> Mesh:
     mid = 0.5 * (x[1:] + x[:-1])
     span = np.clip(np.searchsorted(section.mast_chainage_m, mid) - 1, 0, section.n_spans - 1)
     return Mesh(x_m=x, mast_nodes=nodes(section.mast_chainage_m), dropper_nodes=nodes(section.dropper_chainage_m),
-                element_span=span, cw_clamp_nodes=nodes(section.cw_clamp_chainage_m))
+                element_span=span, cw_clamp_nodes=nodes(section.cw_clamp_chainage_m),
+                cw_point_mass_nodes=nodes(section.cw_point_mass_x_m).astype(int))

@@ -213,6 +213,7 @@ class StaticModel:
         half_dropper = 0.5 * cat.droppers.mass_per_length_kg_m * sec.dropper_lengths_m
         np.add.at(f, self.dropper_cw_dof, -g * (cat.droppers.clamp_mass_contact_kg + half_dropper))
         np.add.at(f, self.dropper_mw_dof, -g * (cat.droppers.clamp_mass_messenger_kg + half_dropper))
+        np.add.at(f, DOFS_PER_NODE * mesh.cw_point_mass_nodes + CW, -g * sec.cw_point_mass_kg)
         return f
 
     def total_weight_n(self) -> float:

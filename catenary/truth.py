@@ -23,7 +23,7 @@ import yaml
 
 from .config import Catenary
 from .dropper_table import nominal_dropper_lengths
-from .effects import EFFECTS, SpanParameters, plant
+from .effects import EFFECTS, SpanParameters, load_modules, plant
 from .errors import ConfigError
 from .recording_car import MastTableErrors, Odometer, RunSpec, StaggerSpec, Variation
 from .schema import check
@@ -172,6 +172,7 @@ def truth_from_dict(raw: Mapping[str, Any], catenary: Catenary, where: str = "ca
         dropper_laws[t] = (mean, std, d.get("law", "gamma"))
         system_height[t] = _law(p["system_height_m"])
         messenger[t] = _law(p["messenger_tension_n"])
+    load_modules(raw.get("effects_modules") or [], where=f"{where}.effects_modules")
     effects = []
     for i, e in enumerate(raw.get("hidden_effects") or []):
         w = f"{where}.hidden_effects[{i}]"
@@ -288,7 +289,10 @@ def draw_line(spec: TruthSpec, catenary: Catenary) -> Line:
         system_height_mean_m=dh_mean, messenger_tension_n=t_mw, contact_tension_n=t_cw,
         section_index=section_index, measuring_force_n=spec.measurement.force_n, creep_offset_m=np.zeros(n_spans),
         cw_offset_m=np.zeros(n_spans), left_mast=left, mast_cw_height_offset_m=np.zeros(n_masts),
-        cw_wear_fraction=np.zeros(n_spans))
+        cw_wear_fraction=np.zeros(n_spans), span_length_m=np.diff(np.array(mast_x))[left],
+        dropper_x_m=np.array([np.pad(catenary.span_type(t).dropper_positions_m,
+                                     (0, n_d - catenary.span_type(t).n_droppers), constant_values=np.nan)
+                              for t in span_type]))
     for name, magnitude in spec.hidden_effects:
         plant(name, params, rng, magnitude)
     if np.any(params.cw_wear_fraction < 0) or np.any(params.cw_wear_fraction >= 1):

@@ -12,9 +12,13 @@ from catenary.blas import one_blas_thread
 
 one_blas_thread(override=True)
 
+import dataclasses  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from catenary.config import load_catenary  # noqa: E402
+from catenary.diagnosis.candidates import register_plugins  # noqa: E402
+from catenary.diagnosis.span_effects import span_candidates, test_span_effects  # noqa: E402
+from catenary.effects import load_modules  # noqa: E402
 from catenary.correction import CorrectionSettings  # noqa: E402
 from catenary.diagnosis.inputs import measuring_pass_of, profile_check_of  # noqa: E402
 from catenary.diagnosis.outputs import DiagnosisPaths, write_line_diagnosis  # noqa: E402
@@ -23,6 +27,7 @@ from catenary.diagnosis.settings import DiagnosisSettings  # noqa: E402
 from catenary.identification.data import read_corrected, span_places  # noqa: E402
 from catenary.identification.settings import IdentificationSettings  # noqa: E402
 from catenary.logs import rule_logger  # noqa: E402
+from catenary.maintenance.settings import MaintenanceSettings  # noqa: E402
 from catenary.model_error.diagnosis import (BudgetSignatures, budget_signatures,  # noqa: E402
                                             free_mean_directions, read_budget)
 from catenary.model_error.propagation import span_shifts  # noqa: E402
@@ -30,10 +35,18 @@ from catenary.pantograph import load_pantographs  # noqa: E402
 from catenary.parquet import read_table  # noqa: E402
 
 log = rule_logger("diagnose", snakemake.log[0])
+own = load_modules(snakemake.params.effects_modules)
+if own:
+    log.info("effects of one's own (effects_modules): %s; candidates on the law of W: %s", ", ".join(own),
+             ", ".join(register_plugins()) or "none")
 catenary = load_catenary(snakemake.input.catenary)
 span_type = catenary.span_type(snakemake.wildcards.span_type)
 identification = IdentificationSettings.from_mapping(snakemake.params.identification)
 settings = DiagnosisSettings.from_mapping(snakemake.params.diagnosis)
+# A dropper made or fitted wrong is the maintenance stage's fault, with its prior probability.
+maintenance = MaintenanceSettings.from_mapping(snakemake.params.maintenance)
+settings = dataclasses.replace(settings, spans=dataclasses.replace(settings.spans,
+                                                                   fault_probability=maintenance.fault_probability))
 correction = CorrectionSettings.from_mapping(snakemake.params.correction)
 log.info("settings: %s", settings.as_mapping())
 data = read_corrected(snakemake.input.corrected, span_type)
@@ -42,8 +55,9 @@ pantograph = load_pantographs(snakemake.input.pantographs)[correction.pantograph
 measuring = measuring_pass_of(snakemake.input.corrected, span_type, catenary, pantograph, correction)
 log.info("measuring pass: %.1f km/h, declared force %.1f N; ∂W/∂F at the droppers %s mm/N", 3.6 * measuring.speed_m_s,
          measuring.force_n, " ".join(f"{1e3 * g:.3f}" for g in measuring.influence_m_n))
-profile, noise = profile_check_of(snakemake.input.corrected, snakemake.input.profiles, span_type, catenary, pantograph,
-                                  correction, settings.span_check().profile, measuring.speed_m_s, measuring.force_n)
+profile_check = profile_check_of(snakemake.input.corrected, snakemake.input.profiles, span_type, catenary, pantograph,
+                                 correction, settings.span_check().profile, measuring.speed_m_s, measuring.force_n)
+profile, noise = profile_check.table, profile_check.noise
 log.info("%s: whole profiles of %d spans read between the droppers: noise %.3f mm per sample (AR(1) %.2f, every "
          "%.2f m)", span_type.name, len(profile), 1e3 * noise.std_m, noise.ar1, noise.step_m)
 extra = None
@@ -51,8 +65,19 @@ if snakemake.params.model_error_enabled:
     shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
                          span_type.n_droppers, read_table(snakemake.input.corrected))
     extra = sum((b.T @ b) / b.shape[0] for b in shifts.w_m.values()) if shifts.w_m else None
+local = span_candidates(settings.candidates)
+
+
+def fit_local(span_ids):
+    """The user's span-scope effects fitted on the spans the final model does not explain."""
+    return test_span_effects(local, span_ids, profile_check.profiles, span_type, catenary, noise,
+                             settings.span_check().profile, settings.level, influences=profile_check.influences,
+                             directions=profile_check.directions, log=log)
+
+
 line = diagnose_line(span_type, catenary, data, span_places(read_table(snakemake.input.corrected), data.span_id),
                      identification, settings, profile=profile, extra_covariance_m2=extra,
+                     span_effects=fit_local if local else None,
                      force_influence_m_n=measuring.influence_m_n, declared_force_n=measuring.force_n,
                      workers=snakemake.threads, n_left_out=len(data.left_out), log=log)
 budget = None

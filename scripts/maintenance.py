@@ -27,9 +27,13 @@ w_shifts = None
 if snakemake.params.model_error_enabled:
     w_shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
                            span_type.n_droppers, corrected)
+spans_check = pd.read_csv(snakemake.input.spans, dtype={"span_id": str, "section_id": str, "group": str,
+                                                       "explained_by": str}, keep_default_na=False,
+                          na_values={c: [""] for c in ("peak_chainage_m", "peak_size_mm", "peak_load_n")})
+sections_check = pd.read_csv(snakemake.input.sections, dtype={"section_id": str})
 run = run_maintenance(span_type, catenary, data, corrected, pd.read_csv(snakemake.input.s_opt), identification,
                       settings, one_run_m2=identification.noise_covariance_m2(span_type.n_droppers, repeatability_m2),
-                      w_shifts=w_shifts)
+                      w_shifts=w_shifts, spans_check=spans_check, sections_check=sections_check)
 log.info("%s: %d spans, W error %s; posterior in %.1f s", span_type.name, data.w_m.shape[0], run.noise, run.time_s)
 marked = run.posterior.drop_duplicates("span_id").query("status != 'ok'")
 for row in marked.itertuples():
@@ -39,8 +43,9 @@ write_maintenance(run, snakemake.output.posterior, snakemake.output.listed, conf
                   noise=run.noise)
 chainage_figure(run.posterior, settings.threshold, snakemake.output.figure,
                 f"{span_type.name}: dropper most likely out of tolerance per span")
-log.info("%s: %d span input(s) listed (P(out of tolerance) > %g)", span_type.name, len(run.listed),
-         settings.threshold)
+inspect = run.listed["status"] == "unexplained"
+log.info("%s: %d span input(s) listed (P(out of tolerance) > %g), %d inspection(s) where the model does not explain "
+         "the data", span_type.name, int((~inspect).sum()), settings.threshold, int(inspect.sum()))
 write_bands(run, snakemake.output.band, snakemake.output.band_coverage)
 if run.bands is not None:
     cov = run.bands.coverage

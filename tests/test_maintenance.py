@@ -318,6 +318,37 @@ def test_the_list_is_ordered_and_says_what_to_do():
     assert list(listed.action) == ["lengthen", "shorten", "inspect tensioning device (T_MW high)"]
 
 
+def test_no_crew_is_sent_to_adjust_what_the_model_does_not_explain():
+    # Span "a" is unexplained alone (its profile departs between droppers): its dropper row goes,
+    # one "inspect span" row says where. Spans "b" and "c" are section S2's group with a T_MW
+    # offset: their tension rows go, their dropper row stays (drawn from the laws with the
+    # offset), and the section's tensioning device is named once with the offset. Span "d",
+    # explained, keeps its row.
+    post = pd.DataFrame({
+        "span_id": ["a", "b", "b", "c", "d"],
+        "input": ["dropper_2_length_m", "messenger_tension_n", "dropper_4_length_m", "messenger_tension_n",
+                  "dropper_1_length_m"],
+        "mean": [1.02, 18000.0, 0.98, 18100.0, 1.26], "q05": 0.0, "q95": 0.0,
+        "p_out_of_tolerance": [0.9, 0.8, 0.7, 0.75, 0.6], "nominal": [1.0, 20575.0, 0.945, 20575.0, 1.244],
+        "lower": 0.0, "upper": 0.0, "section_id": ["S1", "S2", "S2", "S2", "S3"],
+        "start_chainage_m": [0.0, 60.0, 60.0, 120.0, 300.0], "end_chainage_m": [60.0, 120.0, 120.0, 180.0, 360.0],
+        "effective_samples": 3000.0, "status": "ok"})
+    spans = pd.DataFrame({"span_id": ["a", "b", "c", "d"], "section_id": ["S1", "S2", "S2", "S3"],
+                          "start_chainage_m": [0.0, 60.0, 120.0, 300.0], "end_chainage_m": [60.0, 120.0, 180.0, 360.0],
+                          "unexplained": [True, True, True, False], "group": ["", "S2", "S2", ""],
+                          "peak_chainage_m": [27.4, np.nan, np.nan, np.nan], "peak_size_mm": [-3.1, np.nan, np.nan, np.nan],
+                          "peak_load_n": [55.0, np.nan, np.nan, np.nan], "explained_by": ""})
+    sections = pd.DataFrame({"section_id": ["S1", "S2"], "n_spans": [19, 19], "unexplained": [False, True],
+                             "tension_offset": [True, True], "messenger_tension_offset_n": [120.0, -2480.0],
+                             "messenger_tension_offset_se_n": [190.0, 195.0]})
+    listed = maintenance_list(post, 0.5, spans, sections)
+    assert list(zip(listed.span_id, listed.input)) == [("a", "span"), ("section S2", "messenger_tension_n"),
+                                                       ("b", "dropper_4_length_m"), ("d", "dropper_1_length_m")]
+    assert listed.loc[0, "action"].startswith("inspect span") and "27.4 m" in listed.loc[0, "action"]
+    assert "tensioning device of section S2" in listed.loc[1, "action"] and "-2480" in listed.loc[1, "action"]
+    assert list(listed.status[:2]) == ["unexplained", "unexplained"]
+
+
 @pytest.mark.parametrize("block, message", [
     ({"threshold": 1.5}, "maintenance.threshold"),
     ({"dropper_tolerance_m": -0.01}, "maintenance.dropper_tolerance_m"),

@@ -55,50 +55,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..effects import EFFECTS
+from ..effects import EFFECTS, EffectParameter
 
-__all__ = ["CANDIDATES", "KINDS", "Candidate", "CandidateParameter", "MODEL_FORM"]
+__all__ = ["CANDIDATES", "KINDS", "Candidate", "CandidateParameter", "MODEL_FORM", "known", "register_plugins"]
 
 KINDS = ("spread", "shift")
 #: Candidates that are a change of the span model rather than an effect of catenary.effects.
 MODEL_FORM = ("wire_continuity",)
 
 
-@dataclass(frozen=True)
-class CandidateParameter:
-    """One parameter of a candidate effect.
-
-    Attributes
-    ----------
-    name : str
-        The magnitude's keyword in :mod:`catenary.effects` (``std_n``, ``mean_m``…).
-    kind : {"spread", "shift"}
-    bounds : (float, float)
-        Allowed range [SI]; the null 0 lies inside (a spread's on its lower edge).
-    scale : float
-        Typical size [SI]: the optimiser's unit and the finite-difference scale.
-    realistic : float
-        A realistic magnitude on a high-speed line [SI] (the size the validation plants).
-    unit : str
-        Unit for reports (``N``, ``m``, ``-``).
-    label : str
-        What it is, in words, for reports.
-    """
-
-    name: str
-    kind: str
-    bounds: tuple[float, float]
-    scale: float
-    realistic: float
-    unit: str
-    label: str
-
-    def __post_init__(self):
-        if self.kind not in KINDS:
-            raise ValueError(f"{self.name}: kind must be one of {KINDS}, got {self.kind!r}")
-        lo, hi = self.bounds
-        if not (lo <= 0.0 <= hi and lo < hi) or (self.kind == "spread" and lo != 0.0):
-            raise ValueError(f"{self.name}: bounds {self.bounds} must contain the null 0 (a spread's as lower bound)")
+#: One parameter of a candidate effect (:class:`catenary.effects.EffectParameter`: name, kind,
+#: bounds, scale, realistic size, unit, label).
+CandidateParameter = EffectParameter
 
 
 @dataclass(frozen=True)
@@ -131,9 +99,10 @@ class Candidate:
 
     @property
     def design_columns(self) -> int:
-        """Design columns one model span needs: 1 per span or section draw, 2 for a mast draw
-        (the span's two masts), 0 without randomness."""
-        return {"span": 1, "section": 1, "mast": 2, None: 0}[self.draw]
+        """Design columns one model span needs: the effect's draws per span or section, twice
+        that for a mast draw (the span's two masts), 0 without randomness."""
+        per = EFFECTS[self.name].n_draws if self.name in EFFECTS else 1
+        return per * {"span": 1, "section": 1, "mast": 2, None: 0}[self.draw]
 
     @property
     def n_spread(self) -> int:
@@ -185,3 +154,22 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               (_p("fraction", "shift", (-0.5, 1.5), 0.5, 1.0, "-", "fraction of the wires' continuity over the masts"),),
               frozenset({"continuity"}), "wires continuous over the masts instead of a span pinned at them"),
 )}
+
+
+def register_plugins() -> tuple[str, ...]:
+    """Make every user's effect of ``scope="population"`` with declared parameters a candidate
+    (:func:`catenary.effects.load_modules` registers them as effects first); return their names."""
+    out = []
+    for name, effect in EFFECTS.items():
+        if name in CANDIDATES or effect.scope != "population" or not effect.parameters:
+            continue
+        CANDIDATES[name] = Candidate(name, tuple(effect.parameters), frozenset(),
+                                     effect.summary or f"{name} (an effect of one's own)")
+        out.append(name)
+    return tuple(out)
+
+
+def known(name: str) -> bool:
+    """Whether ``name`` is a candidate: a built-in, a registered user's effect of population
+    scope, or a user's effect of span scope (fitted span by span, :mod:`.span_effects`)."""
+    return name in CANDIDATES or (name in EFFECTS and EFFECTS[name].scope == "span" and bool(EFFECTS[name].parameters))

@@ -21,7 +21,7 @@ from ..pantograph import Pantograph
 from ..parquet import read_table
 from .profile_check import Influence, ProfileNoise, ProfileSettings, profile_tests
 
-__all__ = ["MeasuringPass", "measuring_pass_of", "profile_check_of"]
+__all__ = ["MeasuringPass", "ProfileCheck", "measuring_pass_of", "profile_check_of"]
 
 #: Spacing of the tabulated response of the measuring pass along a span [m] (linear interpolation
 #: between: the response is piecewise smooth between the droppers at the 0.1 m scale of a sample).
@@ -57,9 +57,22 @@ def measuring_pass_of(corrected_path, span_type: SpanType, catenary: Catenary, p
     return MeasuringPass(speed_m_s=speed, force_n=force, influence_m_n=influence)
 
 
+@dataclass(frozen=True)
+class ProfileCheck:
+    """The profile test of a span type's spans and what it read: the table
+    (:func:`.profile_check.profile_tests`), the line's noise, the profiles, the measuring pass's
+    responses per direction and each run's direction."""
+
+    table: pd.DataFrame
+    noise: ProfileNoise
+    profiles: pd.DataFrame
+    influences: dict
+    directions: dict
+
+
 def profile_check_of(corrected_path, profiles_path, span_type: SpanType, catenary: Catenary, pantograph: Pantograph,
                      correction: CorrectionSettings, settings: ProfileSettings, speed_m_s: float,
-                     force_n: float) -> tuple[pd.DataFrame, ProfileNoise]:
+                     force_n: float) -> ProfileCheck:
     """The profile test of every corrected span of ``span_type``
     (:func:`.profile_check.profile_tests`): the measuring pass's response to the static CW at the
     knots for each direction the runs took (:func:`catenary.measuring.profile_influence`, at the
@@ -78,5 +91,7 @@ def profile_check_of(corrected_path, profiles_path, span_type: SpanType, catenar
     if all(c in corrected.columns for c in force_columns):
         for span_id, rows in corrected.groupby("span_id"):
             forces[str(span_id)] = rows[force_columns].to_numpy(dtype=float).min(axis=0)
-    return profile_tests(profiles, span_type.length_m, span_type.dropper_positions_m, span_type.contact_tension_n,
-                         settings, influences=influences, directions=directions, dropper_forces_n=forces)
+    table, noise = profile_tests(profiles, span_type.length_m, span_type.dropper_positions_m,
+                                 span_type.contact_tension_n, settings, influences=influences, directions=directions,
+                                 dropper_forces_n=forces)
+    return ProfileCheck(table, noise, profiles, influences, directions)

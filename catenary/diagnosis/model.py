@@ -162,7 +162,8 @@ class EffectSampler:
         p = SpanParameters.independent_spans(
             x.dropper_lengths_m, x.messenger_tension_n, x.system_height_left_m, x.system_height_right_m,
             system_height_mean_m=float(means[-1]), contact_tension_n=self.models.span_type.contact_tension_n,
-            measuring_force_n=self.declared_force_n)
+            measuring_force_n=self.declared_force_n, span_length_m=self.models.span_type.length_m,
+            dropper_x_m=self.models.span_type.dropper_positions_m)
         magnitudes = magnitudes or {}
         for name in self.active:
             if name not in EFFECTS:
@@ -171,8 +172,10 @@ class EffectSampler:
             draws = None
             if effect.draw is not None:
                 c = self.columns[name]
-                # a mast draw: the span's left and right masts (2k, 2k + 1)
-                draws = z[:, c:c + 2].ravel() if effect.draw == "mast" else z[:, c]
+                # a mast draw: the span's left and right masts (2k, 2k + 1); several draws per item
+                per = effect.n_draws
+                draws = (z[:, c:c + 2].ravel() if effect.draw == "mast" else z[:, c]) if per == 1 else (
+                    z[:, c:c + 2 * per].reshape(-1, per) if effect.draw == "mast" else z[:, c:c + per])
             effect.apply(p, draws, **magnitudes[name])
         return p
 

@@ -19,6 +19,7 @@ from ..model_error.diagnosis import Alike, BudgetSignatures, correction_model_al
 from .candidates import CANDIDATES, CandidateParameter
 from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure, spans_figure
 from .runner import DiagnosisRun, LineDiagnosis, Step
+from .span_effects import SPAN_EFFECT_COLUMNS
 
 __all__ = ["CANDIDATE_COLUMNS", "DiagnosisPaths", "FINDING_COLUMNS", "candidates_table", "findings_table",
            "format_magnitude", "spans_markdown", "step_alike", "summary_markdown", "write_diagnosis",
@@ -50,6 +51,7 @@ class DiagnosisPaths:
     spans: Path | None = None
     sections: Path | None = None
     spans_figure: Path | None = None
+    span_effects: Path | None = None
 
     @classmethod
     def in_folder(cls, folder: str | Path) -> "DiagnosisPaths":
@@ -57,7 +59,7 @@ class DiagnosisPaths:
         return cls(findings=f / "findings.csv", candidates=f / "candidates.csv", steps=f / "steps.json",
                    residuals=f / "residuals.png", eigenvalues=f / "eigenvalues.png", qq=f / "mahalanobis_qq.png",
                    scores=f / "score_screen.png", summary=f / "summary.md", spans=f / "spans.csv",
-                   sections=f / "sections.csv", spans_figure=f / "spans.png")
+                   sections=f / "sections.csv", spans_figure=f / "spans.png", span_effects=f / "span_effects.csv")
 
 
 def _json(value) -> str:
@@ -192,6 +194,7 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
               f"{run.time_s:.0f} s.", ""]
     if run.skipped:
         lines += ["Candidates not tried: " + "; ".join(f"`{k}` ({v})" for k, v in run.skipped.items()) + ".", ""]
+    lines += [f"> {note}" for note in run.notes] + ([""] if run.notes else [])
     for st in run.steps:
         lines += [f"## Step {st.step}", "",
                   f"Model: {', '.join(st.model_effects) or 'the starting model'} (J = {st.before.j:.2f}). "
@@ -318,7 +321,7 @@ def spans_markdown(line: LineDiagnosis) -> list[str]:
                  f"correction's error), and every section's spans together; false-discovery rate "
                  f"{100 * fdr:g} % (Benjamini–Hochberg).")
     lines.append("")
-    bad = spans[spans["unexplained"].astype(bool)]
+    bad = spans[spans["unexplained"].astype(bool) | (spans["explained_by"].fillna("") != "")]
     if bad.empty:
         lines += [f"All {n} spans are explained (smallest q-value {spans['q_value'].min():.2g}).", ""]
     else:
@@ -340,6 +343,9 @@ def spans_markdown(line: LineDiagnosis) -> list[str]:
             lines.append(f"| {r.span_id} | {r.start_chainage_m:.1f}–{r.end_chainage_m:.1f} | {r.q_value:.2g} | "
                          f"{where} | {r.why} |")
         lines.append("")
+    fitted = line.span_effects
+    if fitted is not None and len(fitted):
+        lines += _span_effects_markdown(line)
     if line.with_unexplained is not None:
         same = not line.depends_on_unexplained
         lines.append(f"The verdicts above are those of the {run.n_spans} spans the model explains. With the "
@@ -353,12 +359,39 @@ def spans_markdown(line: LineDiagnosis) -> list[str]:
     return lines
 
 
+def _span_effects_markdown(line: LineDiagnosis) -> list[str]:
+    """The user's span-scope effects, fitted on the spans unexplained alone: what each explains,
+    with its magnitudes, and the gap before and after."""
+    fitted = line.span_effects
+    spans = line.check.spans
+    before = int((spans["unexplained"].astype(bool) | (spans["explained_by"].fillna("") != "")).sum())
+    after = int(spans["unexplained"].astype(bool).sum())
+    lines = ["### Effects of your own, fitted span by span", ""]
+    for name, rows in fitted.groupby("effect", sort=False):
+        ok = rows[rows["explained"].astype(bool)]
+        lines.append(f"`{name}` explains **{len(ok)} of the {len(rows)} spans** it was fitted on (significant at "
+                     f"the {100 * line.run.settings.level:g} % level, and the profile left within the model):")
+        lines.append("")
+        lines += ["| span | magnitudes (± standard error) | LR | p | left: global p, local p | explains it |",
+                  "|---|---|---:|---:|---|---|"]
+        for r in rows.itertuples():
+            mags = ", ".join(f"{k} {v[0]:.3g} ± {v[1]:.2g}" for k, v in json.loads(r.parameters).items())
+            lines.append(f"| {r.span_id} | {mags} | {r.lr_statistic:.1f} | {r.p_value:.2g} | "
+                         f"{r.p_global_after:.2g}, {r.p_local_after:.2g} | {'yes' if r.explained else 'no'} |")
+        lines.append("")
+    lines += [f"The gap: **{before} spans unexplained without these effects, {after} with them**.", ""]
+    return lines
+
+
 def write_line_diagnosis(line: LineDiagnosis, paths: DiagnosisPaths, budget: BudgetSignatures | None = None) -> None:
     """Write a span type's diagnosis with its per-span check (:func:`write_diagnosis`, then
     ``spans.csv``, ``sections.csv``, ``spans.png`` and the check's part of ``summary.md``)."""
     write_diagnosis(line.run, paths, budget, with_unexplained=line.with_unexplained,
-                    n_unexplained=0 if line.with_unexplained is None else line.first_check.n_unexplained,
+                    n_unexplained=0 if line.with_unexplained is None else int(line.check.departing.sum()),
                     extra_summary=spans_markdown(line))
     line.check.spans.to_csv(paths.spans, index=False, float_format="%.6g")
+    if paths.span_effects is not None:
+        (line.span_effects if line.span_effects is not None else pd.DataFrame(columns=list(SPAN_EFFECT_COLUMNS))
+         ).to_csv(paths.span_effects, index=False, float_format="%.6g")
     line.check.sections.to_csv(paths.sections, index=False, float_format="%.6g")
     spans_figure(line.check.spans, line.check.sections, paths.spans_figure, line.run.span_type, line.run.settings.fdr)

@@ -76,12 +76,14 @@ class ProfileSettings:
         is nearly the base's hat, and a CW clamp a few centimetres off its design position
         bends the wire there).
     slack_risk_force_n : float
-        A dropper carrying less than this in the correction's final model may go slack under
-        the measuring pass (a 36 N pantograph unloads the dropper it stands under by ≈ 16 N on
-        N2 and N3, statically; the rest is the force's own error, ≈ 3 N for 0.3 mm on W, and the
-        pass's dynamics) [N]: whether it does decides the measured profile around it by up to
-        ≈ 1 mm, which the correction's W cannot tell, so its two bays are not scanned for a
-        point load (the global statistic still reads them).
+        A dropper carrying less than this in the correction's final model goes slack under the
+        measuring pass whatever the error of its force (a 36 N pantograph unloads the dropper it
+        stands under by ≈ 16 N on N2 and N3, statically; the force's own error is ≈ 3–4 N, from
+        W's 0.3 mm at the droppers) [N]: whether the true one does decides the measured profile
+        around it by up to ≈ 1 mm, which W cannot tell, so its two bays are not scanned for a
+        point load (the global statistic still reads them). Not higher: a load clamped near a
+        dropper makes the correction's model hold the CW there with a longer, less loaded
+        dropper (15–20 N measured), and masking would hide the very load.
     scale_half_window_m : float
         The point-load statistic's spread over the line's spans is pooled over positions
         within ± this [m] (:func:`local_scale`).
@@ -96,7 +98,7 @@ class ProfileSettings:
 
     grid_step_m: float = 0.25
     knot_clearance_m: float = 0.3
-    slack_risk_force_n: float = 25.0
+    slack_risk_force_n: float = 12.0
     scale_half_window_m: float = 0.75
     min_spans_for_scale: int = 10
     calibration_draws: int = 4000
@@ -120,9 +122,8 @@ def knots_of(length_m: float, dropper_positions_m: np.ndarray) -> np.ndarray:
 
 def base_columns(x_m: np.ndarray, knots_m: np.ndarray, influence: "Influence | None" = None) -> np.ndarray:
     """The model's freedoms along a span (module docs): a column per knot — its hat, or with an
-    ``influence`` the measuring pass's response to the static CW raised there, followed by its
-    response to the previous span's last droppers — then the bays' sag ``(x − a)(b − x)`` [m²]
-    in one column; shape (len(x), len(knots) + extra + 1)."""
+    ``influence`` the measuring pass's response to the static CW raised there — then the bays'
+    sag ``(x − a)(b − x)`` [m²] in one column; shape (len(x), len(knots) + 1)."""
     x = np.asarray(x_m, dtype=float)
     k = np.asarray(knots_m, dtype=float)
     bay = np.clip(np.searchsorted(k, x, side="right") - 1, 0, k.size - 2)
@@ -143,9 +144,9 @@ def base_columns(x_m: np.ndarray, knots_m: np.ndarray, influence: "Influence | N
 
 @dataclass(frozen=True)
 class Influence:
-    """The measuring pass's response along a span to its static CW raised at each knot and at
-    the previous span's last droppers (:func:`catenary.measuring.profile_influence`, reordered
-    mast, droppers, mast, previous droppers), tabulated at ``x_m`` [m], interpolated linearly."""
+    """The measuring pass's response along a span to its static CW raised at each knot
+    (:func:`catenary.measuring.profile_influence`, reordered mast, droppers, mast), tabulated at
+    ``x_m`` [m], interpolated linearly."""
 
     x_m: np.ndarray
     columns: np.ndarray
@@ -153,10 +154,10 @@ class Influence:
     @classmethod
     def from_measuring(cls, x_m: np.ndarray, columns: np.ndarray, n_droppers: int) -> "Influence":
         """From :func:`catenary.measuring.profile_influence`'s columns for ``n_droppers``
-        droppers (droppers, left mast, right mast, previous droppers)."""
+        droppers (droppers, left mast, right mast)."""
         c = np.asarray(columns, dtype=float)
         n = n_droppers
-        return cls(np.asarray(x_m, dtype=float), np.column_stack([c[:, n], c[:, :n], c[:, n + 1], c[:, n + 2:]]))
+        return cls(np.asarray(x_m, dtype=float), np.column_stack([c[:, n], c[:, :n], c[:, n + 1]]))
 
     def at(self, x_m: np.ndarray) -> np.ndarray:
         x = np.asarray(x_m, dtype=float)

@@ -31,8 +31,10 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from ..config import Catenary, SpanType
+from ..errors import InputError
 from ..identification.design import MESSENGER_TENSION
 from ..identification.runner import check_span_count
 from ..identification.settings import IdentificationSettings
@@ -133,7 +135,9 @@ def applicable_candidates(settings: DiagnosisSettings, base: IdentificationSetti
     random = set(base.random_names(n_droppers))
     out = []
     for name in settings.candidates:
-        if name in settings.start_effects:
+        if name not in CANDIDATES:
+            skipped[name] = "acts span by span: fitted on the spans the final model does not explain"
+        elif name in settings.start_effects:
             skipped[name] = "in the starting model already"
         elif name == "messenger_tension_variability" and MESSENGER_TENSION in random:
             skipped[name] = "T_MW is a random input of the starting model already"
@@ -316,12 +320,17 @@ class LineDiagnosis:
         The diagnosis of every span, when unexplained spans were left out of ``run``.
     first_check : SpanCheck or None
         The check against the final model of ``with_unexplained``, which chose the spans left out.
+    span_effects : pandas.DataFrame or None
+        The user's span-scope effects fitted on the spans unexplained alone
+        (:func:`.span_effects.test_span_effects`); ``check`` then says which each explains.
     """
 
     run: DiagnosisRun
     check: SpanCheck
     with_unexplained: DiagnosisRun | None = None
     first_check: SpanCheck | None = None
+
+    span_effects: pd.DataFrame | None = None
 
     @property
     def depends_on_unexplained(self) -> bool:
@@ -331,7 +340,7 @@ class LineDiagnosis:
 
 def diagnose_line(span_type: SpanType, catenary: Catenary, data, places, identification: IdentificationSettings,
                   settings: DiagnosisSettings, *, profile=None, extra_covariance_m2: np.ndarray | None = None,
-                  log: logging.Logger | None = None, **kwargs) -> LineDiagnosis:
+                  span_effects=None, log: logging.Logger | None = None, **kwargs) -> LineDiagnosis:
     """:func:`diagnose` every span of ``data``, then check each span against the final model; if
     some are unexplained, diagnose again without them (a named effect must be carried by the
     bulk of the spans) and check every span against that final model (docs/diagnosis.md).
@@ -347,6 +356,10 @@ def diagnose_line(span_type: SpanType, catenary: Catenary, data, places, identif
         The spans' profile tests (:func:`.profile_check.profile_tests`).
     extra_covariance_m2 : numpy.ndarray, optional
         Measurement error of W the diagnosis' likelihood does not carry, added to the final law.
+    span_effects : callable, optional
+        ``span_effects(span_ids) -> DataFrame``: the user's span-scope effects fitted on the spans
+        unexplained alone (:func:`.span_effects.test_span_effects` with the profiles bound); the
+        spans an effect explains are explained by it.
     **kwargs
         Passed to :func:`diagnose` (force influence, declared force, workers, spans left out).
     """
@@ -367,12 +380,50 @@ def diagnose_line(span_type: SpanType, catenary: Catenary, data, places, identif
              ": " + ", ".join(check.spans.loc[check.unexplained, "span_id"]) if check.n_unexplained else "")
     if check.n_unexplained == 0:
         return LineDiagnosis(first, check)
-    bulk = data.without(check.unexplained, "unexplained by the final model")
-    log.info("%s: diagnosed again without the %d unexplained spans", span_type.name, check.n_unexplained)
-    n_left_out = kwargs.pop("n_left_out", 0) + check.n_unexplained
-    run = diagnose(span_type, catenary, bulk.w_m, identification, settings, mast_pairs=bulk.mast_pairs, log=log,
-                   n_left_out=n_left_out, **kwargs)
+    fitted, check = _span_effects(check, span_effects, log, span_type.name)
+    departing = check.departing
+    bulk = data.without(departing, "unexplained by the final model (or only with a local effect)")
+    log.info("%s: diagnosed again without the %d unexplained spans", span_type.name, int(departing.sum()))
+    n_left_out = kwargs.pop("n_left_out", 0) + int(departing.sum())
+    try:
+        run = diagnose(span_type, catenary, bulk.w_m, identification, settings, mast_pairs=bulk.mast_pairs,
+                       log=log, n_left_out=n_left_out, **kwargs)
+    except InputError as exc:          # too few spans left for the model's parameters
+        log.warning("%s: the explained spans alone cannot be diagnosed (%s): the verdicts are those of every "
+                    "span, the unexplained ones included", span_type.name, exc)
+        first.notes.append(f"{int(departing.sum())} spans are unexplained, and the {bulk.w_m.shape[0]} others are too "
+                           "few to diagnose alone: the verdicts are those of every span, the unexplained ones "
+                           "included")
+        return LineDiagnosis(first, check, span_effects=fitted)
     final = checked(run)
+    if fitted is not None:
+        final = explained_by(final, fitted)
     log.info("%s: against the bulk's final model, %d spans unexplained; named %s (with every span: %s)",
              span_type.name, final.n_unexplained, run.named or "nothing", first.named or "nothing")
-    return LineDiagnosis(run, final, first, check)
+    return LineDiagnosis(run, final, first, check, span_effects=fitted)
+
+
+def explained_by(check: SpanCheck, fitted: pd.DataFrame) -> SpanCheck:
+    """``check`` with every unexplained span that a fitted span-scope effect explains marked
+    explained by it (``explained_by``; the effect with the largest LR)."""
+    best = (fitted[fitted["explained"].astype(bool)].sort_values("lr_statistic", ascending=False)
+            .drop_duplicates("span_id").set_index("span_id")["effect"])
+    spans = check.spans.copy()
+    by = spans["span_id"].map(best).fillna("")
+    spans["explained_by"] = np.where(spans["unexplained"].astype(bool), by, "")
+    spans["unexplained"] = spans["unexplained"].astype(bool) & (spans["explained_by"] == "")
+    return SpanCheck(spans, check.sections, check.noise)
+
+
+def _span_effects(check: SpanCheck, span_effects, log, name: str):
+    """Fit the user's span-scope effects on the spans unexplained alone (not as a section)."""
+    if span_effects is None:
+        return None, check
+    alone = check.spans.loc[check.unexplained & (check.spans["group"] == ""), "span_id"].tolist()
+    if not alone:
+        return None, check
+    fitted = span_effects(alone)
+    check = explained_by(check, fitted)
+    log.info("%s: the span-scope effects explain %d of the %d spans unexplained alone", name,
+             int((check.spans["explained_by"] != "").sum()), len(alone))
+    return fitted, check

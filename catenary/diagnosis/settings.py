@@ -18,7 +18,7 @@ from typing import Any
 from ..errors import ConfigError
 from ..identification.settings import IdentificationSettings
 from ..schema import check, merged_mapping
-from .candidates import CANDIDATES
+from .candidates import CANDIDATES, known
 from .profile_check import ProfileSettings
 from .span_check import SpanCheckSettings
 
@@ -110,9 +110,14 @@ class DiagnosisSettings:
         check(self.as_mapping(), "config", "diagnosis")
         for key in ("neighbours", "max_steps", "n_samples", "seed", "bootstrap_replicates", "max_evaluations"):
             object.__setattr__(self, key, int(getattr(self, key)))
-        unknown = [c for c in (*self.candidates, *self.start_effects) if c not in CANDIDATES]
+        unknown = [c for c in (*self.candidates, *self.start_effects) if not known(c)]
         if unknown:
-            raise ConfigError(f"diagnosis: unknown candidate effect(s) {unknown}; known: {', '.join(CANDIDATES)}")
+            raise ConfigError(f"diagnosis: unknown candidate effect(s) {unknown}; known: {', '.join(CANDIDATES)} and "
+                              "the effects of effects_modules")
+        local = [c for c in self.start_effects if c not in CANDIDATES]
+        if local:
+            raise ConfigError(f"diagnosis.start.effects: {local} act span by span (scope span): list them among "
+                              "diagnosis.candidates instead")
         if "wire_continuity" in self.start_effects and self.neighbours != 0:
             raise ConfigError("diagnosis.start.effects: wire_continuity needs the pinned span (start.neighbours: 0)")
 

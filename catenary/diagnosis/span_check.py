@@ -8,11 +8,11 @@ the named effects, the measurement's noise and the correction's model error):
 
 * **W at the droppers** against the final model's law of W (the Gaussian of its model sample,
   mean m and covariance Σ, plus the correction's model-error budget of the span): the
-  Mahalanobis distance of ``W − m`` after up to ``max_faulty_droppers`` droppers are set free
-  (a dropper made or fitted wrong is in the model — the maintenance stage's fault component —
-  and must stay actionable as "shorten dropper i", not become unexplained). Its law under the
-  model is simulated (``w_draws`` draws of ``N(m, Σ)``); beyond the simulation's reach, the
-  χ² bound with ``n − max_faulty_droppers`` degrees of freedom (conservative, valid);
+  Mahalanobis distance of ``W − m`` after up to ``max_faulty_droppers`` droppers are set free,
+  each at the cost of its prior log-odds (a dropper made or fitted wrong is in the model — the
+  maintenance stage's fault component — and must stay actionable as "shorten dropper i", not
+  become unexplained; :func:`w_tests`). Its law under the model is simulated (``w_draws`` draws
+  of ``N(m, Σ)``); beyond the simulation's reach, a χ² bound (conservative, valid);
 * **the profile between the droppers** (:mod:`.profile_check`);
 * the two, independent under the model, combine as ``1 − (1 − min)²`` (Šidák: uniform).
 
@@ -51,7 +51,7 @@ __all__ = ["SECTION_COLUMNS", "SPAN_COLUMNS", "SpanCheck", "SpanCheckSettings", 
 #: Columns of ``diagnosis/spans.csv``.
 SPAN_COLUMNS = ("span_id", "section_id", "start_chainage_m", "end_chainage_m", "p_value", "q_value", "unexplained",
                 "group", "p_w", "p_profile", "p_global", "p_local", "peak_chainage_m", "peak_size_mm",
-                "peak_load_n", "bays_not_scanned", "why")
+                "peak_load_n", "bays_not_scanned", "why", "explained_by")
 #: Columns of ``diagnosis/sections.csv``.
 SECTION_COLUMNS = ("section_id", "n_spans", "statistic", "p_value", "q_value", "unexplained",
                    "messenger_tension_offset_n", "messenger_tension_offset_se_n", "p_rest", "tension_offset")
@@ -67,6 +67,9 @@ class SpanCheckSettings:
         False-discovery rate of the Benjamini–Hochberg procedure.
     max_faulty_droppers : int
         Droppers per span set free before W is tested (faults the maintenance stage acts on).
+    fault_probability : float
+        Prior probability that a dropper was made or fitted wrong (the maintenance stage's): its
+        log-odds are what setting a dropper free costs.
     w_draws : int
         Draws of the model's law of W for the W test's null law.
     min_section_spans : int
@@ -79,6 +82,7 @@ class SpanCheckSettings:
 
     fdr: float = 0.05
     max_faulty_droppers: int = 2
+    fault_probability: float = 0.01
     w_draws: int = 20000
     min_section_spans: int = 3
     level: float = 0.01
@@ -149,40 +153,46 @@ def _whitened_projectors(law: WLaw, subsets: list) -> tuple[np.ndarray, list]:
     return inv, bases
 
 
-def _min_distance(z: np.ndarray, bases: list) -> tuple[np.ndarray, np.ndarray]:
-    """Per whitened residual row of ``z``: the smallest squared distance after removing each
-    subset's directions, and which subset gave it."""
+def _min_distance(z: np.ndarray, bases: list, penalty: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per whitened residual row of ``z``: the smallest penalised squared distance after removing
+    each subset's directions, and which subset gave it."""
     total = np.einsum("ij,ij->i", z, z)
     d = np.stack([total - (np.einsum("ij,jk->ik", z, q) ** 2).sum(axis=1) if q.shape[1] else total
-                  for q in bases], axis=1)
+                  for q in bases], axis=1) + penalty[None, :]
     return d.min(axis=1), d.argmin(axis=1)
 
 
 def w_tests(data_w_m: np.ndarray, law: WLaw, settings: SpanCheckSettings) -> tuple[np.ndarray, np.ndarray]:
-    """The W test of every span (module docs): p-value and the residual with its clear faults
-    removed (the faults whose removal lowers the distance beyond the χ² 99.9 % quantile of their
-    count), shape (K,) and (K, n)."""
+    """The W test of every span (module docs): p-value, and the residual with its faults removed,
+    shape (K,) and (K, n).
+
+    The statistic is the squared Mahalanobis distance after the best set of at most
+    ``max_faulty_droppers`` droppers is set free, each free dropper costing its prior log-odds
+    ``2 ln((1 − f)/f)`` (f the fault probability: 9.2 at 1 %) — a dropper is taken as faulty
+    when that explains more than the model expects a fault to be rare. Its law under the model is
+    simulated (no fault: the p-value is exactly uniform on spans of the law; a span with one or
+    two faults of a few centimetres gets p ≈ 0.05 or 0.005, far from a false-discovery line).
+    Beyond the simulation's reach, the χ² bound with ``n − max_faulty_droppers`` degrees of
+    freedom of the penalised statistic less its largest penalty (valid, conservative)."""
     n = law.mean_m.size
     subsets = fault_subsets(n, settings.max_faulty_droppers)
     inv, bases = _whitened_projectors(law, subsets)
+    penalty = 2.0 * np.log((1.0 - settings.fault_probability) / settings.fault_probability) * np.array(
+        [len(q) for q in subsets], dtype=float)
     r = np.asarray(data_w_m, dtype=float) - law.mean_m
-    z = r @ inv.T
-    d_obs, best = _min_distance(z, bases)
+    d_obs, best = _min_distance(r @ inv.T, bases, penalty)
     rng = np.random.default_rng(settings.seed)
-    null = np.sort(_min_distance(rng.standard_normal((settings.w_draws, n)), bases)[0])
+    null = np.sort(_min_distance(rng.standard_normal((settings.w_draws, n)), bases, penalty)[0])
     count = null.size - np.searchsorted(null, d_obs, side="left")
-    bound = stats.chi2.sf(d_obs, n - settings.max_faulty_droppers)
+    bound = stats.chi2.sf(d_obs - penalty.max(), n - settings.max_faulty_droppers)
     p = np.where(count >= 10, (count + 1) / (null.size + 1), np.minimum(bound, 1.0))
-    # Clear faults: removed from the residual the sections read.
-    total = np.einsum("ij,ij->i", z, z)
     cleaned = r.copy()
+    w_inv = np.linalg.inv(law.covariance_m2)
     for k in range(r.shape[0]):
         s = subsets[best[k]]
-        if s and total[k] - d_obs[k] > stats.chi2.ppf(0.999, len(s)):
+        if s:
             g = law.dropper_m_m[:, list(s)]
-            w_inv = np.linalg.inv(law.covariance_m2)
-            delta = np.linalg.solve(g.T @ w_inv @ g, g.T @ w_inv @ r[k])
-            cleaned[k] = r[k] - g @ delta
+            cleaned[k] = r[k] - g @ np.linalg.solve(g.T @ w_inv @ g, g.T @ w_inv @ r[k])
     return p, cleaned
 
 
@@ -260,6 +270,13 @@ class SpanCheck:
     def n_unexplained(self) -> int:
         return int(self.unexplained.sum())
 
+    @property
+    def departing(self) -> np.ndarray:
+        """Spans the final model does not explain, or only with a local effect of one's own: left
+        out of the laws and of the diagnosis' verdicts."""
+        by = self.spans["explained_by"].fillna("").astype(str) if "explained_by" in self.spans else ""
+        return self.unexplained | (np.asarray(by) != "")
+
 
 def _why(row, section_row) -> str:
     reasons = []
@@ -324,6 +341,7 @@ def check_spans(spans: pd.DataFrame, data_w_m: np.ndarray, law: WLaw, profile: p
     flagged = set(sections.loc[sections["unexplained"], "section_id"])
     table["group"] = np.where(table["section_id"].isin(flagged), table["section_id"], "")
     table["unexplained"] = (table["q_value"] < settings.fdr) | table["section_id"].isin(flagged)
+    table["explained_by"] = ""
     by_section = sections.set_index("section_id")
     table["why"] = [_why({**row, "q_span": row["q_value"], "fdr": settings.fdr},
                          by_section.loc[row["section_id"]].to_dict() | {"section_id": row["section_id"]}

@@ -32,7 +32,7 @@ from .result import IdentificationResult
 from .synthetic import simulate_deflections
 from .settings import IdentificationSettings
 
-__all__ = ["COMFORTABLE_SPANS_PER_PARAMETER", "IdentificationRun", "MarginalDensities", "check_span_count",
+__all__ = ["COMFORTABLE_SPANS_PER_PARAMETER", "IdentificationRun", "IdentifiedLaws", "identify_laws", "MarginalDensities", "check_span_count",
            "marginal_densities", "normality_report", "run_identification"]
 
 _LOG = logging.getLogger(__name__)
@@ -273,50 +273,28 @@ def check_span_count(name: str, n_spans: int, n_parameters: int, log, *, n_left_
                     name, n_spans, n_parameters, COMFORTABLE_SPANS_PER_PARAMETER)
 
 
-def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray,
-                       settings: IdentificationSettings, *, left_out: list[tuple[str, str]] | None = None,
-                       mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None,
-                       noise_covariance_m2: np.ndarray | None = None,
-                       n_runs: np.ndarray | None = None,
-                       w_shifts: SpanShifts | None = None) -> IdentificationRun:
-    """Identify the input laws of ``span_type`` from measured deflections and build every output.
+@dataclass(frozen=True)
+class IdentifiedLaws:
+    """The laws of one span type by maximum likelihood, without the reports around them
+    (:func:`identify_laws`): the likelihood, its inputs, the result and the model-error budget
+    carried to every μ and σ (None when not measured)."""
 
-    Parameters
-    ----------
-    span_type, catenary
-        Span type and catenary data.
-    data_w_m : numpy.ndarray, shape (K, n)
-        Measured static W [m] (deflection from the chord at the droppers, negative below).
-    settings : IdentificationSettings
-    left_out : list of (str, str), optional
-        Spans left out upstream, carried into the report.
-    mast_pairs : numpy.ndarray of int, shape (P, 2), optional
-        Rows of ``data_w_m`` that share a mast (:attr:`CorrectedData.mast_pairs`). Without them
-        the standard errors are the observed information's whatever ``settings.standard_errors``.
-    log : logging.Logger, optional
-        Progress messages (default: this module's logger).
-    noise_covariance_m2 : numpy.ndarray, optional
-        Covariance of one run's W error [m²] added to the model's law (divided by ``n_runs``):
-        :meth:`.settings.IdentificationSettings.noise_covariance_m2`.
-    n_runs : numpy.ndarray of int, optional
-        Runs averaged into each row of ``data_w_m`` (default 1).
-    w_shifts : SpanShifts, optional
-        The correction's model-error budget: per source, the shift of ``data_w_m`` for one
-        standard uncertainty (:func:`catenary.model_error.propagation.span_shifts`). Given, each
-        source is carried to every identified μ and σ (:mod:`catenary.model_error.propagation`)
-        and s_opt gets its total intervals.
+    likelihood: Likelihood
+    start: tuple
+    result: IdentificationResult
+    model_error: pd.DataFrame | None
+    j_start: float = float("nan")
 
-    Returns
-    -------
-    IdentificationRun
 
-    Notes
-    -----
-    Seeds: the identification design uses ``settings.seed``, the band ``seed + 1``, the
-    designs of the estimators figure ``seed + 2`` and the normality samples ``seed + 3``.
-    """
+def identify_laws(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray,
+                  settings: IdentificationSettings, *, left_out: list[tuple[str, str]] | None = None,
+                  mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None,
+                  noise_covariance_m2: np.ndarray | None = None, n_runs: np.ndarray | None = None,
+                  w_shifts: SpanShifts | None = None) -> IdentifiedLaws:
+    """s_opt with its standard errors and model-error budget (the first half of
+    :func:`run_identification`, whose parameters it takes): what the later stages need of laws
+    identified on a subset of the spans (those the final model explains)."""
     log = log or _LOG
-    t0 = time.perf_counter()
     data = np.atleast_2d(np.asarray(data_w_m, dtype=float))
     if data.shape[0] < 2:
         raise InputError(f"span type {span_type.name}: {data.shape[0]} measured span(s); the identification "
@@ -382,6 +360,59 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
         log.warning("%s: no model-error budget of the parameters (%s)", span_type.name,
                     f"identification status {result.status}" if w_shifts.w_m else
                     "no source has a measured shift: " + "; ".join(f"{k}: {v}" for k, v in w_shifts.unmeasured.items()))
+    return IdentifiedLaws(lik, start, result, budget, float(j_start))
+
+
+def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray,
+                       settings: IdentificationSettings, *, left_out: list[tuple[str, str]] | None = None,
+                       mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None,
+                       noise_covariance_m2: np.ndarray | None = None,
+                       n_runs: np.ndarray | None = None,
+                       w_shifts: SpanShifts | None = None) -> IdentificationRun:
+    """Identify the input laws of ``span_type`` from measured deflections and build every output.
+
+    Parameters
+    ----------
+    span_type, catenary
+        Span type and catenary data.
+    data_w_m : numpy.ndarray, shape (K, n)
+        Measured static W [m] (deflection from the chord at the droppers, negative below).
+    settings : IdentificationSettings
+    left_out : list of (str, str), optional
+        Spans left out upstream, carried into the report.
+    mast_pairs : numpy.ndarray of int, shape (P, 2), optional
+        Rows of ``data_w_m`` that share a mast (:attr:`CorrectedData.mast_pairs`). Without them
+        the standard errors are the observed information's whatever ``settings.standard_errors``.
+    log : logging.Logger, optional
+        Progress messages (default: this module's logger).
+    noise_covariance_m2 : numpy.ndarray, optional
+        Covariance of one run's W error [m²] added to the model's law (divided by ``n_runs``):
+        :meth:`.settings.IdentificationSettings.noise_covariance_m2`.
+    n_runs : numpy.ndarray of int, optional
+        Runs averaged into each row of ``data_w_m`` (default 1).
+    w_shifts : SpanShifts, optional
+        The correction's model-error budget: per source, the shift of ``data_w_m`` for one
+        standard uncertainty (:func:`catenary.model_error.propagation.span_shifts`). Given, each
+        source is carried to every identified μ and σ (:mod:`catenary.model_error.propagation`)
+        and s_opt gets its total intervals.
+
+    Returns
+    -------
+    IdentificationRun
+
+    Notes
+    -----
+    Seeds: the identification design uses ``settings.seed``, the band ``seed + 1``, the
+    designs of the estimators figure ``seed + 2`` and the normality samples ``seed + 3``.
+    """
+    log = log or _LOG
+    t0 = time.perf_counter()
+    laws = identify_laws(span_type, catenary, data_w_m, settings, left_out=left_out, mast_pairs=mast_pairs, log=log,
+                         noise_covariance_m2=noise_covariance_m2, n_runs=n_runs, w_shifts=w_shifts)
+    lik, start, result, budget, j_start = laws.likelihood, laws.start, laws.result, laws.model_error, laws.j_start
+    data = lik.data_w_m
+    s = settings
+    n = span_type.n_droppers
     t_profile = time.perf_counter()
     profiled = s.profile_names(n)
     profiles = []

@@ -11,7 +11,8 @@ from ..model_error.propagation import total_intervals
 from .profile import ProfileInterval
 from .result import IdentificationResult
 
-__all__ = ["S_OPT_COLUMNS", "s_opt_table", "trace_schema", "trace_table"]
+__all__ = ["LAWS_COMPARISON_COLUMNS", "S_OPT_COLUMNS", "laws_comparison", "s_opt_table", "trace_schema",
+           "trace_table"]
 
 S_OPT_COLUMNS = ("parameter", "mu", "sigma", "mu_se", "sigma_se", "mu_variance_widening", "sigma_variance_widening",
                  "mu_fixed", "mu_profile_low", "mu_profile_high", "sigma_profile_low", "sigma_profile_high",
@@ -68,3 +69,29 @@ def trace_table(result: IdentificationResult) -> pd.DataFrame:
         columns[f"mu_{name}"] = result.trace_means[:, k]
         columns[f"sigma_{name}"] = result.trace_sigmas[:, k]
     return pd.DataFrame(columns)
+
+
+#: Columns of ``laws_comparison.csv``.
+LAWS_COMPARISON_COLUMNS = ("parameter", "statistic", "all_spans", "all_spans_se", "explained_spans",
+                           "explained_spans_se", "difference", "difference_se", "z", "n_all", "n_explained")
+
+
+def laws_comparison(all_spans: pd.DataFrame, explained: pd.DataFrame, n_all: int, n_explained: int) -> pd.DataFrame:
+    """The laws identified on every span against those on the spans the final model explains,
+    per input and statistic (``mu``, ``sigma``): both with their standard errors, the difference
+    and its standard error — for nested samples of an efficient estimator
+    ``√(se_explained² − se_all²)`` (the part of the subset's variance the left-out spans would
+    have removed; NaN where not positive) — and ``z`` = difference / its standard error."""
+    a = all_spans.set_index("parameter")
+    b = explained.set_index("parameter")
+    rows = []
+    for name in a.index:
+        for stat in ("mu", "sigma"):
+            x, sx = float(a.loc[name, stat]), float(a.loc[name, f"{stat}_se"])
+            y, sy = float(b.loc[name, stat]), float(b.loc[name, f"{stat}_se"])
+            var = sy ** 2 - sx ** 2
+            se = float(np.sqrt(var)) if var > 0 else float("nan")
+            rows.append({"parameter": name, "statistic": stat, "all_spans": x, "all_spans_se": sx,
+                         "explained_spans": y, "explained_spans_se": sy, "difference": y - x, "difference_se": se,
+                         "z": (y - x) / se if se > 0 else float("nan"), "n_all": n_all, "n_explained": n_explained})
+    return pd.DataFrame(rows, columns=list(LAWS_COMPARISON_COLUMNS))

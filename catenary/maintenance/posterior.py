@@ -100,6 +100,20 @@ class Posterior:
     misfit_p_value: np.ndarray
     draws_z: np.ndarray | None = None
 
+    def with_rows(self, rows: np.ndarray, other: "Posterior") -> "Posterior":
+        """A copy with the spans ``rows`` taken from ``other`` (their posteriors under other laws)."""
+        out = {}
+        for name in ("mean", "q05", "q95", "p_outside", "mode_z", "mode_converged", "effective_samples",
+                     "misfit_p_value", "draws_z"):
+            mine, theirs = getattr(self, name), getattr(other, name)
+            if mine is None or theirs is None:
+                out[name] = None if mine is None else mine
+                continue
+            mine = mine.copy()
+            mine[rows] = theirs
+            out[name] = mine
+        return Posterior(names=self.names, n_samples=self.n_samples, **out)
+
     @property
     def status(self) -> np.ndarray:
         """Per span: ``ok``, or why its posterior is not to be trusted as written."""

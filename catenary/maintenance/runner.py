@@ -119,7 +119,9 @@ class MaintenanceRun:
 
 def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData, corrected: pd.DataFrame,
                     s_opt: pd.DataFrame, identification: IdentificationSettings, settings: MaintenanceSettings, *,
-                    one_run_m2: np.ndarray | None = None, w_shifts: SpanShifts | None = None) -> MaintenanceRun:
+                    one_run_m2: np.ndarray | None = None, w_shifts: SpanShifts | None = None,
+                    spans_check: pd.DataFrame | None = None,
+                    sections_check: pd.DataFrame | None = None) -> MaintenanceRun:
     """Posterior per span and input, and the maintenance list, for one span type.
 
     Parameters
@@ -135,6 +137,11 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
         Covariance of one run's W error that the identification used (None: it used none).
     w_shifts : SpanShifts, optional
         The correction's model-error budget per span.
+    spans_check, sections_check : pandas.DataFrame, optional
+        The diagnosis' per-span check (``diagnosis/spans.csv``, ``sections.csv``): a section
+        whose spans share a T_MW offset has its spans' posteriors drawn from the laws with that
+        offset (its device, not their droppers, is what is wrong), and the list acts on what the
+        model does not explain (:func:`maintenance_list`).
     """
     t0 = time.perf_counter()
     prior = prior_from_s_opt(span_type, catenary, s_opt, identification,
@@ -150,6 +157,19 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
     lower, upper = tolerance_limits(output_names(n, prior.system_height_mode), nominal_inputs, settings)
     post = span_posteriors(prior, data.w_m, cov, lower=lower, upper=upper, n_samples=settings.n_samples,
                            seed=settings.seed, n_draws=settings.band_draws_per_span)
+    for section, offset in tension_offsets(sections_check).items():
+        rows = np.flatnonzero(span_places(corrected, data.span_id)["section_id"].to_numpy() == section)
+        if rows.size == 0:
+            continue
+        shifted = s_opt.copy()
+        shifted.loc[shifted["parameter"] == "messenger_tension_n", "mu"] += offset
+        group = span_posteriors(prior_from_s_opt(span_type, catenary, shifted, identification,
+                                                 fault_probability=settings.fault_probability,
+                                                 fault_std_m=settings.fault_std_m,
+                                                 law_uncertainty=settings.law_uncertainty),
+                                data.w_m[rows], cov[rows], lower=lower, upper=upper, n_samples=settings.n_samples,
+                                seed=settings.seed, n_draws=settings.band_draws_per_span)
+        post = post.with_rows(rows, group)
     bands = None
     if settings.band_draws_per_span > 0:
         bands = population_bands(prior, post.draws_z, data.w_m, cov,
@@ -170,7 +190,8 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
         "effective_samples": np.repeat(post.effective_samples, d),
         "status": np.repeat(post.status, d),
     }, columns=list(POSTERIOR_COLUMNS))
-    return MaintenanceRun(table, maintenance_list(table, settings.threshold), what, time.perf_counter() - t0, bands)
+    listed = maintenance_list(table, settings.threshold, spans_check, sections_check)
+    return MaintenanceRun(table, listed, what, time.perf_counter() - t0, bands)
 
 
 def _action(row) -> str:
@@ -184,12 +205,81 @@ def _action(row) -> str:
     return "check system height (" + ("high" if row.deviation > 0 else "low") + ")"
 
 
-def maintenance_list(posterior: pd.DataFrame, threshold: float) -> pd.DataFrame:
+def tension_offsets(sections_check: pd.DataFrame | None) -> dict[str, float]:
+    """The sections whose spans depart together as a T_MW offset (``sections.csv``), with the
+    offset [N]."""
+    if sections_check is None or sections_check.empty:
+        return {}
+    rows = sections_check[sections_check["unexplained"].astype(str).str.lower().isin(["true", "1"])
+                          & sections_check["tension_offset"].astype(str).str.lower().isin(["true", "1"])]
+    return {str(r.section_id): float(r.messenger_tension_offset_n) for r in rows.itertuples()}
+
+
+def _inspections(spans_check: pd.DataFrame, sections_check: pd.DataFrame | None, places: pd.DataFrame) -> pd.DataFrame:
+    """One row per span the model does not explain alone (inspect the span where its profile
+    departs, or what an effect of one's own found there) and per section whose spans depart
+    together (its tensioning device with its T_MW offset, or the section)."""
+    rows = []
+    flag = spans_check["unexplained"].astype(str).str.lower().isin(["true", "1"])
+    by = spans_check["explained_by"].fillna("").astype(str) if "explained_by" in spans_check else ""
+    alone = spans_check[(flag | (by != "")) & (spans_check["group"].fillna("").astype(str) == "")]
+    for r in alone.itertuples():
+        where = (f"at chainage {r.peak_chainage_m:.1f} m ({r.peak_size_mm:+.1f} mm; a point load of "
+                 f"{r.peak_load_n:.0f} N would bend the CW so)" if np.isfinite(r.peak_chainage_m)
+                 else "at its droppers")
+        what = (f"{r.explained_by} explains it" if getattr(r, "explained_by", "") else
+                "its profile departs from the model")
+        rows.append({"span_id": r.span_id, "section_id": r.section_id, "start_chainage_m": r.start_chainage_m,
+                     "end_chainage_m": r.end_chainage_m, "input": "span", "p_out_of_tolerance": np.nan,
+                     "action": f"inspect span: {what} {where}", "status": "unexplained"})
+    offsets = tension_offsets(sections_check)
+    if sections_check is not None and not sections_check.empty:
+        groups = sections_check[sections_check["unexplained"].astype(str).str.lower().isin(["true", "1"])]
+        for g in groups.itertuples():
+            inside = places[places["section_id"].astype(str) == str(g.section_id)]
+            start, end = inside["start_chainage_m"].min(), inside["end_chainage_m"].max()
+            if str(g.section_id) in offsets:
+                action = (f"inspect the tensioning device of section {g.section_id}: its {g.n_spans} spans share a "
+                          f"T_MW offset of {g.messenger_tension_offset_n:+.0f} ± {g.messenger_tension_offset_se_n:.0f} "
+                          "N from the line's")
+                extra = {"input": "messenger_tension_n", "deviation": g.messenger_tension_offset_n}
+            else:
+                action = f"inspect section {g.section_id}: its {g.n_spans} spans depart from the model together"
+                extra = {"input": "section"}
+            rows.append({"span_id": f"section {g.section_id}", "section_id": g.section_id, "start_chainage_m": start,
+                         "end_chainage_m": end, "p_out_of_tolerance": np.nan, "action": action, "status": "unexplained",
+                         **extra})
+    return pd.DataFrame(rows, columns=list(LIST_COLUMNS))
+
+
+def maintenance_list(posterior: pd.DataFrame, threshold: float, spans_check: pd.DataFrame | None = None,
+                     sections_check: pd.DataFrame | None = None) -> pd.DataFrame:
     """The spans' inputs whose probability of lying outside tolerance exceeds ``threshold``,
     most likely first (ties by chainage), with the deviation of the posterior mean from nominal
-    and the action it calls for."""
+    and the action it calls for.
+
+    With the diagnosis' per-span check, no crew is sent to adjust a dropper or a tension the model
+    cannot vouch for: a span the final model does not explain alone (or explains only with a local
+    effect of one's own) gets one row, ``inspect span``, with where its profile departs, instead of
+    its inputs' rows; a section whose spans depart together gets one row for its tensioning device
+    (with the T_MW offset its spans share; their tension rows dropped, their dropper rows drawn
+    from the laws with that offset) or for the section (its spans' rows dropped). These rows come
+    first, their ``p_out_of_tolerance`` empty and ``status`` ``unexplained``."""
     rows = posterior[posterior["p_out_of_tolerance"] > threshold].copy()
     rows["deviation"] = rows["mean"] - rows["nominal"]
     rows["action"] = [_action(r) for r in rows.itertuples()] if len(rows) else []
     rows = rows.sort_values(["p_out_of_tolerance", "start_chainage_m"], ascending=[False, True], kind="stable")
-    return rows.reindex(columns=list(LIST_COLUMNS)).reset_index(drop=True)
+    rows = rows.reindex(columns=list(LIST_COLUMNS)).reset_index(drop=True)
+    if spans_check is None:
+        return rows
+    flag = spans_check["unexplained"].astype(str).str.lower().isin(["true", "1"])
+    by = spans_check["explained_by"].fillna("").astype(str) if "explained_by" in spans_check else ""
+    group = spans_check["group"].fillna("").astype(str)
+    offsets = tension_offsets(sections_check)
+    drop_all = set(spans_check.loc[(flag | (by != "")) & ((group == "") | ~group.isin(list(offsets))), "span_id"])
+    drop_tension = set(spans_check.loc[group.isin(list(offsets)), "span_id"])
+    keep = ~rows["span_id"].isin(drop_all) & ~(rows["span_id"].isin(drop_tension)
+                                              & (rows["input"] == "messenger_tension_n"))
+    places = posterior.drop_duplicates("span_id")[["span_id", "section_id", "start_chainage_m", "end_chainage_m"]]
+    inspections = _inspections(spans_check, sections_check, places).sort_values("start_chainage_m", kind="stable")
+    return pd.concat([inspections, rows[keep]], ignore_index=True).reindex(columns=list(LIST_COLUMNS))

@@ -87,6 +87,14 @@ def reported(path, caption, stage, title, category="{span_type}"):
                   labels={"result": title, "file": os.path.basename(path)})
 
 
+def later_laws(wildcards):
+    """The identified laws the maintenance and contact-force stages read: those of the spans the
+    final model explains, or of every span (diagnosis.later_stages_laws)."""
+    choice = SPAN_TYPE_SETTINGS["diagnosis"][wildcards.span_type].get("later_stages_laws", "without_unexplained")
+    name = "s_opt.csv" if choice == "all_spans" else "s_opt_explained.csv"
+    return f"{RESULTS}/{wildcards.span_type}/identification/{name}"
+
+
 FRONT_PAGE = f"{RESULTS}/report/front_page.rst"
 
 
@@ -98,6 +106,8 @@ def front_page_inputs(wildcards):
         inputs[f"s_opt_{span_type}"] = f"{RESULTS}/{span_type}/identification/s_opt.csv"
         inputs[f"model_error_{span_type}"] = f"{RESULTS}/{span_type}/identification/model_error.csv"
         inputs[f"findings_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/findings.csv"
+        inputs[f"spans_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/spans.csv"
+        inputs[f"sections_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/sections.csv"
     return inputs
 
 
@@ -140,7 +150,7 @@ def identification_outputs(span_types=SPAN_TYPES):
         [
             f"{RESULTS}/{{span_type}}/identification/{name}"
             for name in ("s_opt.csv", "trace.parquet", "estimators.png", "normality.json", "band.png",
-                         "identification.md")
+                         "identification.md", "laws_comparison.csv")
         ] + [f"{RESULTS}/{{span_type}}/repeatability/summary.csv"],
         span_type=span_types,
     )
@@ -233,7 +243,8 @@ def diagnosis_outputs(span_types=SPAN_TYPES):
         [
             f"{RESULTS}/{{span_type}}/diagnosis/{name}"
             for name in ("findings.csv", "candidates.csv", "steps.json", "residuals.png", "eigenvalues.png",
-                         "mahalanobis_qq.png", "score_screen.png", "summary.md")
+                         "mahalanobis_qq.png", "score_screen.png", "summary.md", "spans.csv", "sections.csv",
+                         "spans.png")
         ],
         span_type=span_types,
     )

@@ -5,7 +5,7 @@ rule contact_force_batch:
     """Dynamic runs over one batch of random sections drawn from the identified laws (or a
     tolerance case's): EN 50318 criteria and EN 50367 limits per replicate and speed."""
     input:
-        s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
+        s_opt=later_laws,
         findings=f"{RESULTS}/{{span_type}}/diagnosis/findings.csv",
         catenary=config["catenary"],
         pantographs=config["pantographs"],
@@ -31,7 +31,7 @@ rule contact_force:
     probabilities, the tolerance study, the sensitivity and the report."""
     input:
         batches=lambda wc: contact_force_batches(wc.span_type),
-        s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
+        s_opt=later_laws,
         findings=f"{RESULTS}/{{span_type}}/diagnosis/findings.csv",
         catenary=config["catenary"],
         pantographs=config["pantographs"],

@@ -25,7 +25,10 @@ rule diagnose:
         spans=reported(f"{RESULTS}/{{span_type}}/diagnosis/spans.csv", "diagnosis_spans", DIAGNOSIS, "Every span: explained or not"),
         sections=f"{RESULTS}/{{span_type}}/diagnosis/sections.csv",
         spans_figure=reported(f"{RESULTS}/{{span_type}}/diagnosis/spans.png", "diagnosis_spans_figure", DIAGNOSIS, "Unexplained spans along the line"),
+        span_effects=f"{RESULTS}/{{span_type}}/diagnosis/span_effects.csv",
     params:
+        effects_modules=config.get("effects_modules", []),
+        maintenance=config.get("maintenance"),
         identification=span_type_settings("identification"),
         diagnosis=span_type_settings("diagnosis"),
         correction=config["correction"],

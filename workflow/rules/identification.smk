@@ -52,6 +52,33 @@ rule identify:
         "../../scripts/identify.py"
 
 
+rule identify_explained:
+    """The laws of one span type identified again without the spans the final model does not
+    explain (diagnosis/spans.csv), beside those of every span (laws_comparison.csv): what the
+    later stages use unless diagnosis.later_stages_laws is all_spans."""
+    input:
+        corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
+        noise=f"{RESULTS}/{{span_type}}/repeatability/noise.json",
+        model_error=f"{RESULTS}/correction/model_error.parquet",
+        s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
+        spans=f"{RESULTS}/{{span_type}}/diagnosis/spans.csv",
+        catenary=config["catenary"],
+    output:
+        s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt_explained.csv",
+        comparison=reported(f"{RESULTS}/{{span_type}}/identification/laws_comparison.csv", "laws_comparison", IDENTIFICATION, "Laws with and without the unexplained spans"),
+    params:
+        identification=span_type_settings("identification"),
+        model_error_enabled=config.get("model_error", {}).get("enabled", False),
+    log:
+        f"{RESULTS}/logs/identify_explained/{{span_type}}.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/identify_explained/{{span_type}}.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/identify_explained.py"
+
+
 rule identification_check:
     """Validation only: identified laws against the realized truth of the spans used (z-scores)."""
     input:

@@ -8,7 +8,9 @@ rule maintenance:
     Fig. 10 with its leave-one-out coverage."""
     input:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
-        s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
+        s_opt=later_laws,
+        spans=f"{RESULTS}/{{span_type}}/diagnosis/spans.csv",
+        sections=f"{RESULTS}/{{span_type}}/diagnosis/sections.csv",
         noise=f"{RESULTS}/{{span_type}}/repeatability/noise.json",
         model_error=f"{RESULTS}/correction/model_error.parquet",
         catenary=config["catenary"],
