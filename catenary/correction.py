@@ -580,9 +580,9 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
                         for i in range(n_max)})
             row.update({f"residual_w{i + 1}_m": residual[k, i] if i < residual.shape[1] else np.nan
                         for i in range(n_max)})
-            force = result.dropper_force_n
-            row.update({f"dropper_{i + 1}_force_n": force[k, i] if force is not None and i < force.shape[1] else np.nan
-                        for i in range(n_max)})
+            tensions = result.dropper_force_n
+            row.update({f"dropper_{i + 1}_force_n": tensions[k, i] if tensions is not None and i < tensions.shape[1]
+                        else np.nan for i in range(n_max)})
             row.update(iterations=int(passes[k]), gap_norm_m=result.gap_norm_m[k], converged=bool(converged[k]),
                        slack_droppers=0 if result.slack_droppers is None else int(result.slack_droppers[k]),
                        reason=reason)

@@ -7,6 +7,7 @@ from pathlib import Path
 import pandas as pd
 
 from catenary.config import load_catenary
+from catenary.errors import InputError
 from catenary.identification.data import read_corrected
 from catenary.identification.runner import identify_laws
 from catenary.identification.settings import IdentificationSettings
@@ -27,28 +28,33 @@ departing = set(spans.loc[(spans["unexplained"].astype(str) == "True")
                           | (spans["explained_by"].astype(str) != ""), "span_id"])
 leave = pd.Series(data.span_id).isin(departing).to_numpy()
 all_spans = pd.read_csv(snakemake.input.s_opt)
-if not leave.any():
-    log.info("%s: every span is explained by the final model: the laws are those of every span", span_type.name)
-    shutil.copyfile(snakemake.input.s_opt, snakemake.output.s_opt)
-    laws_comparison(all_spans, all_spans, len(data.span_id), len(data.span_id)).to_csv(
-        snakemake.output.comparison, index=False, float_format="%.10g")
-else:
-    bulk = data.without(leave, "unexplained by the final model (diagnosis/spans.csv)")
+bulk = data.without(leave, "unexplained by the final model (diagnosis/spans.csv)")
+table, why = None, "every span is explained by the final model"
+if leave.any():
     log.info("%s: %d spans left out as unexplained (%s); %d identified", span_type.name, int(leave.sum()),
              ", ".join(sorted(departing)), bulk.w_m.shape[0])
     w_shifts = None
     if snakemake.params.model_error_enabled:
         w_shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, bulk.span_id,
                                span_type.n_droppers, read_table(snakemake.input.corrected))
-    laws = identify_laws(span_type, catenary, bulk.w_m, settings, left_out=bulk.left_out, mast_pairs=bulk.mast_pairs,
-                         log=log, n_runs=bulk.n_runs,
-                         noise_covariance_m2=settings.noise_covariance_m2(span_type.n_droppers, repeatability_m2),
-                         w_shifts=w_shifts)
-    table = s_opt_table(laws.result, (), laws.model_error)
-    Path(snakemake.output.s_opt).parent.mkdir(parents=True, exist_ok=True)
+    try:
+        laws = identify_laws(span_type, catenary, bulk.w_m, settings, left_out=bulk.left_out,
+                             mast_pairs=bulk.mast_pairs, log=log, n_runs=bulk.n_runs,
+                             noise_covariance_m2=settings.noise_covariance_m2(span_type.n_droppers, repeatability_m2),
+                             w_shifts=w_shifts)
+        table = s_opt_table(laws.result, (), laws.model_error)
+    except InputError as exc:        # too few explained spans for the identified parameters
+        why = f"the {bulk.w_m.shape[0]} explained spans cannot identify the laws alone ({exc})"
+Path(snakemake.output.s_opt).parent.mkdir(parents=True, exist_ok=True)
+if table is None:
+    (log.warning if leave.any() else log.info)("%s: %s: the later stages use the laws of every span",
+                                               span_type.name, why)
+    shutil.copyfile(snakemake.input.s_opt, snakemake.output.s_opt)
+    table = all_spans
+else:
     table.to_csv(snakemake.output.s_opt, index=False, float_format="%.17g")
-    comparison = laws_comparison(all_spans, table, len(data.span_id), bulk.w_m.shape[0])
-    comparison.to_csv(snakemake.output.comparison, index=False, float_format="%.10g")
-    for row in comparison.itertuples():
-        log.info("%s %s: %.6g with every span, %.6g without the unexplained (difference %+.3g, z %.2f)",
-                 row.parameter, row.statistic, row.all_spans, row.explained_spans, row.difference, row.z)
+comparison = laws_comparison(all_spans, table, len(data.span_id), bulk.w_m.shape[0])
+comparison.to_csv(snakemake.output.comparison, index=False, float_format="%.10g")
+for row in comparison.itertuples():
+    log.info("%s %s: %.6g with every span, %.6g without the unexplained (difference %+.3g, z %.2f)",
+             row.parameter, row.statistic, row.all_spans, row.explained_spans, row.difference, row.z)

@@ -34,6 +34,7 @@ import numpy as np
 from ..identification.design import design_dimension, draw_unit_design
 from ..identification.fit import ParameterBox, messenger_tension_bounds_n
 from ..identification.likelihood import Likelihood
+from ..errors import ConvergenceError
 from ..identification.scoring import STEP as _BASE_STEP
 from ..identification.scoring import expected_information, gaussian_moments
 from .candidates import CANDIDATES
@@ -172,7 +173,7 @@ def _information(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndarray
     ref_value = problem.evaluate(theta)
     reference = gaussian_moments(ref_value)
     n_m = len(base_moments)
-    moments, steps = list(base_moments), [2 * _BASE_STEP] * n_m
+    moments, steps = [(up, down) for up, down, _ in base_moments], [h for _, _, h in base_moments]
     score, spread = [], []
     for k, (effect, p) in enumerate(problem.coordinates[-len(CANDIDATES[problem.effects[-1]].parameters):]):
         i = n_m + k
@@ -204,8 +205,7 @@ def _detectable(ctx: DiagnosisContext, problem: JointProblem, theta0: np.ndarray
     nu = ctx.data.shape[0]
     ref = problem.evaluate(theta0)
     m0, s0 = gaussian_moments(ref)
-    directions = [((up[0] - down[0]) / (2 * _BASE_STEP), (up[1] - down[1]) / (2 * _BASE_STEP))
-                  for up, down in base_moments]
+    directions = [((up[0] - down[0]) / h, (up[1] - down[1]) / h) for up, down, h in base_moments]
     need = required_noncentrality(p.kind, level, ctx.settings.power)
     i = theta0.size - len(CANDIDATES[problem.effects[-1]].parameters) + k
     top = p.bounds[1] if p.bounds[1] > 0 else -p.bounds[0]
@@ -230,15 +230,32 @@ def _detectable(ctx: DiagnosisContext, problem: JointProblem, theta0: np.ndarray
 
 
 def base_moments_at(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndarray):
+    """The model's Gaussian moments ``_BASE_STEP`` either side of ``theta`` along each base
+    coordinate, with the distance between them: ``(up, down, h)``. Where the model's J is not
+    finite on one side (a fit that stopped against the edge of what the model can draw, a
+    sample past the fast model's range or half the samples slack), the difference is taken on
+    the other side from ``theta`` itself, and with half the step again if needed (three times);
+    a coordinate along which J is nowhere finite near ``theta`` is a :class:`ConvergenceError`
+    of the fit (the starting model's fit did not reach a maximum)."""
+    centre = problem.evaluate(theta)
     out = []
     for i in range(theta.size):
-        up, down = theta.copy(), theta.copy()
-        up[i] += _BASE_STEP
-        down[i] -= _BASE_STEP
-        vu, vd = problem.evaluate(up), problem.evaluate(down)
-        if vu.fit is None or vd.fit is None:
-            raise RuntimeError(f"J is not finite next to the fitted model along {problem.names[i]}")
-        out.append((gaussian_moments(vu), gaussian_moments(vd)))
+        for halving in range(4):
+            step = _BASE_STEP / 2 ** halving
+            up, down = theta.copy(), theta.copy()
+            up[i] += step
+            down[i] -= step
+            vu, vd = problem.evaluate(up), problem.evaluate(down)
+            if vu.fit is not None and vd.fit is not None:
+                out.append((gaussian_moments(vu), gaussian_moments(vd), 2 * step))
+                break
+            if centre.fit is not None and (vu.fit is not None or vd.fit is not None):
+                out.append((gaussian_moments(vu), gaussian_moments(centre), step) if vu.fit is not None
+                           else (gaussian_moments(centre), gaussian_moments(vd), step))
+                break
+        else:
+            raise ConvergenceError(f"J is not finite anywhere next to the fitted model along {problem.names[i]}: "
+                                   "its fit did not reach a maximum of J")
     return out
 
 

@@ -30,7 +30,8 @@ def _span_check(block: Mapping[str, Any], raw: Mapping[str, Any]) -> SpanCheckSe
     one seed for both, the profile's calibration offset by one)."""
     profile_keys = {f.name for f in dataclasses.fields(ProfileSettings)}
     profile = {k: v for k, v in block.items() if k in profile_keys and k != "seed"}
-    check_keys = {f.name for f in dataclasses.fields(SpanCheckSettings)} - {"profile", "fdr", "level"}
+    check_keys = {f.name for f in dataclasses.fields(SpanCheckSettings)} - {"profile", "fdr", "level",
+                                                                            "fault_probability"}
     rest = {k: v for k, v in block.items() if k in check_keys}
     return SpanCheckSettings(**rest, fdr=raw["fdr"], level=raw["level"],
                              profile=ProfileSettings(**profile, seed=int(block.get("seed", 23)) + 1))
@@ -83,7 +84,8 @@ class DiagnosisSettings:
         The laws the maintenance and contact-force stages use: identified without the spans the
         final model does not explain, or with every span.
     spans : SpanCheckSettings
-        The per-span check (``diagnosis.spans``; its ``fdr`` and ``level`` are this block's).
+        The per-span check (``diagnosis.spans``; its ``fdr`` and ``level`` are this block's, its
+        ``fault_probability`` the maintenance block's, set by the rule script).
     """
 
     random_inputs: tuple[str, ...] = ("dropper_lengths_m", "system_height_m")
@@ -147,7 +149,8 @@ class DiagnosisSettings:
                 "later_stages_laws": self.later_stages_laws,
                 "spans": {k: v for k, v in {**dataclasses.asdict(self.spans.profile),
                                             **dataclasses.asdict(self.spans)}.items()
-                          if k not in ("fdr", "level", "profile", "seed")} | {"seed": self.spans.seed}}
+                          if k not in ("fdr", "level", "profile", "seed", "fault_probability")}
+                | {"seed": self.spans.seed}}
 
     def span_check(self) -> SpanCheckSettings:
         """The per-span check's settings with this block's ``fdr`` and ``level``."""

@@ -208,7 +208,8 @@ def section_tests(residual_m: np.ndarray, section_ids: np.ndarray, pairs: np.nda
     pairs : numpy.ndarray, shape (P, 2)
         Rows sharing a mast, the left span first.
     n_total : int
-        Spans the law was fitted to.
+        Spans the law was fitted to (a section holding more than half of them is not tested: the
+        law's free means are fitted to its spans' mean).
     use : numpy.ndarray of bool, optional
         Spans a section's mean reads (default all).
     """
@@ -220,8 +221,8 @@ def section_tests(residual_m: np.ndarray, section_ids: np.ndarray, pairs: np.nda
     for section in pd.unique(section_ids):
         members = np.flatnonzero((section_ids == section) & use)
         n = members.size
-        if n < settings.min_section_spans:
-            continue
+        if n < settings.min_section_spans or n > 0.5 * n_total:
+            continue          # too few spans, or half the line or more: its mean is the line's, fitted
         inside = np.isin(pairs, members).all(axis=1).sum() if pairs.size else 0
         v = (n * sigma + inside * (c + c.T)) / n ** 2 * max(1.0 - n / max(n_total, 1), 1e-3)
         mean = residual_m[members].mean(axis=0)

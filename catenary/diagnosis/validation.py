@@ -3,7 +3,8 @@
 One row per span type and step: the verdict, the effect named, whether it was planted, and for
 each of its parameters the planted magnitude, the magnitude realized in the spans of that type
 (the sample spread of the drawn values, where the truth table records them), the identified
-value ± standard error and z = (identified − realized) / se.
+value ± standard error and z = (identified − realized) / se. And the per-span check against the
+spans an effect no catalogue lists touched (:func:`span_check_validation`).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import pandas as pd
 
 from ..truth import TruthSpec
 
-__all__ = ["diagnosis_check", "realized_magnitudes"]
+__all__ = ["affected_spans", "diagnosis_check", "realized_magnitudes", "span_check_validation"]
 
 #: Truth-table column whose spread over the spans realizes a spread parameter.
 _REALIZED = {("messenger_tension_variability", "std_n"): "messenger_tension_n",
@@ -73,3 +74,59 @@ def diagnosis_check(findings: dict[str, pd.DataFrame], spec: TruthSpec, truth: p
                              "identified": value, "standard_error": se,
                              "z": (value - real) / se if se and np.isfinite(se) and se > 0 else np.nan})
     return pd.DataFrame(rows)
+
+
+#: Effects of the validation's own code (``config/validation/effects/planted.py``) and how the
+#: truth says which spans they touch: a concentrated mass on the CW (the truth's
+#: ``cw_point_mass_kg``), a section's tension offset (the section at the planted index).
+_LOCAL_EFFECTS = ("in_span_equipment",)
+_SECTION_EFFECTS = ("section_tension_offset",)
+#: Actions that adjust a dropper or a tension (the maintenance list's ``_action`` words).
+_ADJUSTMENTS = ("shorten", "lengthen", "inspect tensioning device (", "check system height")
+
+
+def affected_spans(spec: TruthSpec, truth: pd.DataFrame) -> pd.Series:
+    """Per span of the truth, which out-of-catalogue effect touches it ("" for none)."""
+    out = pd.Series("", index=truth["span_id"].astype(str).to_numpy())
+    if "cw_point_mass_kg" in truth:
+        carried = truth["cw_point_mass_kg"].to_numpy(dtype=float) > 0
+        out[carried] = next((n for n, _ in spec.hidden_effects if n in _LOCAL_EFFECTS), "concentrated mass")
+    sections = list(dict.fromkeys(truth["section_id"].astype(str)))
+    for name, magnitudes in spec.hidden_effects:
+        if name in _SECTION_EFFECTS:
+            inside = truth["section_id"].astype(str).to_numpy() == sections[int(magnitudes["section"])]
+            out[inside] = name
+    return out
+
+
+def span_check_validation(spans: pd.DataFrame, sections: pd.DataFrame, listed: pd.DataFrame, spec: TruthSpec,
+                          truth: pd.DataFrame, span_type: str, campaign: str) -> dict:
+    """The per-span check against the truth, one row: spans affected by an effect no catalogue
+    lists and how many the check flagged, the others flagged, the KS p-value of the unaffected
+    spans' p-values against uniform, the largest error of a flagged local anomaly's position [m],
+    the maintenance rows that adjust a dropper or a tension in an affected span, and the rows
+    that name a section's tensioning device."""
+    from scipy import stats
+    affected = affected_spans(spec, truth[truth["span_type"] == span_type])
+    table = spans.assign(affected=spans["span_id"].astype(str).map(affected).fillna(""))
+    hit = table["affected"] != ""
+    flagged = table["unexplained"].astype(str).str.lower().eq("true") | (
+        table["explained_by"].fillna("").astype(str) != "")
+    error = np.nan
+    if "cw_point_mass_x_m" in truth:
+        true_x = truth.set_index("span_id")["cw_point_mass_x_m"]
+        local = table[hit & flagged & (table["group"].fillna("").astype(str) == "")]
+        if len(local):
+            found = local["peak_chainage_m"] - local["start_chainage_m"]
+            error = float(np.nanmax(np.abs(found.to_numpy() - local["span_id"].map(true_x).to_numpy(dtype=float))))
+    rows = listed[listed["span_id"].isin(table.loc[hit, "span_id"])]
+    adjusts = rows["action"].astype(str).apply(lambda a: a.startswith(_ADJUSTMENTS))
+    devices = listed["action"].astype(str).str.startswith("inspect the tensioning device of section")
+    unaffected = table.loc[~hit, "p_value"].to_numpy(dtype=float)
+    return {"campaign": campaign, "span_type": span_type, "n_spans": len(table), "n_affected": int(hit.sum()),
+            "n_affected_flagged": int((hit & flagged).sum()), "n_others": int((~hit).sum()),
+            "n_others_flagged": int((~hit & flagged).sum()),
+            "ks_p_value_unaffected": float(stats.kstest(unaffected, "uniform").pvalue) if unaffected.size else np.nan,
+            "max_position_error_m": error, "adjustments_in_affected_spans": int(adjusts.sum()),
+            "device_rows": int(devices.sum()), "sections_flagged": ";".join(
+                sections.loc[sections["unexplained"].astype(str).str.lower().eq("true"), "section_id"].astype(str))}

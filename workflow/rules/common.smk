@@ -262,7 +262,7 @@ def maintenance_outputs(span_types=SPAN_TYPES):
     outputs = expand([f"{RESULTS}/{{span_type}}/maintenance/{name}"
                       for name in ("posterior.parquet", "maintenance.csv", "chainage.png")], span_type=span_types)
     if CAMPAIGN_RUN:
-        outputs.append(f"{RESULTS}/validation/maintenance_check.csv")
+        outputs += [f"{RESULTS}/validation/maintenance_check.csv", f"{RESULTS}/validation/spans_check.csv"]
     return outputs
 
 

@@ -67,3 +67,28 @@ rule diagnosis_check:
         "../envs/catenary.yaml"
     script:
         "../../scripts/diagnosis_check.py"
+
+
+rule spans_check:
+    """Validation only: the per-span check and the maintenance list against the spans an effect
+    no catalogue lists touched in the campaign (flagged, others flagged, positions, actions)."""
+    input:
+        spans=expand(f"{RESULTS}/{{span_type}}/diagnosis/spans.csv", span_type=SPAN_TYPES),
+        sections=expand(f"{RESULTS}/{{span_type}}/diagnosis/sections.csv", span_type=SPAN_TYPES),
+        listed=expand(f"{RESULTS}/{{span_type}}/maintenance/maintenance.csv", span_type=SPAN_TYPES),
+        campaign=config["campaign"],
+        truth=f"{RESULTS}/campaign/truth.parquet",
+        catenary=config["catenary"],
+    output:
+        summary=reported(f"{RESULTS}/validation/spans_check.csv", "validation_spans", DIAGNOSIS, "Unexplained spans vs truth", category=VALIDATION),
+    params:
+        span_types=SPAN_TYPES,
+        campaign=lambda wc: os.path.basename(config["campaign"]).removesuffix(".yaml").removesuffix("_campaign"),
+    log:
+        f"{RESULTS}/logs/spans_check.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/spans_check.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/spans_check.py"
