@@ -12,7 +12,9 @@ Snakemake, then
 * ``results/validation/diagnosis.csv``: every campaign's diagnosis against its hidden effects
   (campaign, planted, named, verdict, magnitude planted, realized and identified ± se),
 * the diagnosis over replicate data sets at the level of W (``pytest -m validation``: 20 null
-  replicates, single effects and a pair).
+  replicates, single effects and a pair; 40 null lines of the per-span check),
+* the per-span check on effects no catalogue lists (``o_*``) and on the null campaigns
+  (``open_world_check.py``: ``results/validation/open_world*.csv``).
 
 Wall times go to ``results/benchmarks.json``: one per campaign (``validate_<name>_s``), the
 replicate tests (``validate_replicates_s``) and, on a run of everything, the whole
@@ -42,17 +44,26 @@ MODEL_ERROR = ("m_car", "m_force", "m_panto", "m_speed")
 MAINTENANCE = ("p_faults", "p_coverage")
 #: Campaigns whose projection must refuse every span (registration off on a drifting odometer).
 REFUSED = ("r_off",)
+#: Effects no catalogue lists (issue [16]): the per-span check, the laws without the flagged spans
+#: and the maintenance list against the truth; ``o_plugin`` diagnoses o_local's recording with a
+#: user's own effect (after o_local: it reads that recording).
+OPEN_WORLD = ("o_local", "o_section", "o_plugin")
 
 
 def campaigns() -> list[str]:
     names = sorted(p.stem for p in (ROOT / "config" / "validation").glob("*.yaml") if not p.stem.endswith("_campaign"))
-    return ["default", *names]
+    return ["default", *sorted(names, key=lambda n: (n == "o_plugin", n))]
 
 
 def targets(name: str) -> list[str]:
     folder = "results" if name == "default" else f"results/validate/{name}"
     if name in REFUSED:
         return [f"{folder}/spans_report.csv"]
+    if name == "o_plugin":
+        return [f"{folder}/N2/diagnosis/spans.csv", f"{folder}/N2/maintenance/maintenance.csv"]
+    if name in OPEN_WORLD:
+        return [f"{folder}/validation/spans_check.csv", f"{folder}/validation/diagnosis_check.csv",
+                f"{folder}/N2/identification/laws_comparison.csv"]
     if name in MAINTENANCE:
         return [f"{folder}/validation/maintenance_check.csv", f"{folder}/validation/correction_check.csv",
                 f"{folder}/validation/identification_check.csv", f"{folder}/N2/maintenance/repair_summary.csv"]
@@ -65,6 +76,8 @@ def targets(name: str) -> list[str]:
             out.append(f"{folder}/validation/repeatability_check.csv")
         return out
     out = [f"{folder}/validation/diagnosis_check.csv", f"{folder}/validation/correction_check.csv"]
+    if name in ("default", "v2_null"):
+        out.append(f"{folder}/validation/spans_check.csv")
     if name == "default" or name in IDENTIFICATION or name in MODEL_ERROR:
         out.append(f"{folder}/validation/identification_check.csv")
     return out
@@ -111,9 +124,11 @@ def main() -> None:
     if not args.names:
         run([sys.executable, "benchmarks/model_form_check.py"])
         run([sys.executable, "benchmarks/validation_table.py"])
+    if not args.names or any(n in OPEN_WORLD for n in names):
+        run([sys.executable, "benchmarks/open_world_check.py"])
     rows = []
     out = None
-    for name in (n for n in names if n not in RECORDING and n not in MAINTENANCE):
+    for name in (n for n in names if n not in RECORDING and n not in MAINTENANCE and n != "o_plugin"):
         folder = ROOT / ("results" if name == "default" else f"results/validate/{name}")
         rows.append(pd.read_csv(folder / "validation" / "diagnosis_check.csv"))
     if rows:                       # campaigns with a diagnosis among those run

@@ -171,6 +171,8 @@ def _information(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndarray
     the candidate's coordinates at its null, and the coordinate kinds."""
     nu = ctx.data.shape[0]
     ref_value = problem.evaluate(theta)
+    if ref_value.fit is None:          # J not finite at M's optimum under this model (its range)
+        return None
     reference = gaussian_moments(ref_value)
     n_m = len(base_moments)
     moments, steps = [(up, down) for up, down, _ in base_moments], [h for _, _, h in base_moments]
@@ -204,6 +206,8 @@ def _detectable(ctx: DiagnosisContext, problem: JointProblem, theta0: np.ndarray
     the configured power [SI]; ∞ beyond the allowed range (:func:`.locate.secant_noncentrality`)."""
     nu = ctx.data.shape[0]
     ref = problem.evaluate(theta0)
+    if ref.fit is None:                # J not finite at M's optimum under this model: not stated
+        return float("nan")
     m0, s0 = gaussian_moments(ref)
     directions = [((up[0] - down[0]) / h, (up[1] - down[1]) / h) for up, down, h in base_moments]
     need = required_noncentrality(p.kind, level, ctx.settings.power)
