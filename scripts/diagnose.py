@@ -17,7 +17,7 @@ from pathlib import Path  # noqa: E402
 
 from catenary.config import load_catenary  # noqa: E402
 from catenary.diagnosis.candidates import register_plugins  # noqa: E402
-from catenary.diagnosis.span_effects import span_candidates, test_span_effects  # noqa: E402
+from catenary.diagnosis.span_effects import MeasuringSetup, span_candidates, test_span_effects  # noqa: E402
 from catenary.effects import load_modules  # noqa: E402
 from catenary.correction import CorrectionSettings  # noqa: E402
 from catenary.diagnosis.inputs import measuring_pass_of, profile_check_of  # noqa: E402
@@ -72,7 +72,9 @@ def fit_local(span_ids):
     """The user's span-scope effects fitted on the spans the final model does not explain."""
     return test_span_effects(local, span_ids, profile_check.profiles, span_type, catenary, noise,
                              settings.span_check().profile, settings.level, influences=profile_check.influences,
-                             directions=profile_check.directions, log=log)
+                             directions=profile_check.directions, log=log,
+                             measuring=MeasuringSetup(pantograph.with_static_force(measuring.force_n),
+                                                      measuring.speed_m_s, correction.mode, correction.time_step_s))
 
 
 line = diagnose_line(span_type, catenary, data, span_places(read_table(snakemake.input.corrected), data.span_id),

@@ -10,10 +10,11 @@ found such spans, as the built-ins are on the line (screen, refit, test, add, sh
 2. **refit**: the effect's magnitudes fitted to the span's whole profile: the span hangs in the
    line at its type's design (:func:`span_in_line`), the effect is applied to it by its own
    function, and the static FE model gives the change it makes to the CW along the span; the
-   change's part the correction absorbs (the base: the measuring pass's response at the droppers
-   and masts, the bays' sag) is removed, as from the residual, and the rest fitted by least
-   squares to the whitened residual: a coarse grid over a ``position`` parameter with the other
-   magnitudes scaled linearly, then Nelder–Mead on all of them;
+   change's part the correction absorbs (its heights at the masts and droppers, then what the
+   base holds) is removed, as from the residual, and the rest fitted by least squares to the
+   whitened residual: a coarse grid over a ``position`` parameter with the other magnitudes
+   scaled linearly, then Nelder–Mead on all of them; then the same through the correction's
+   measuring pass (its change with the effect), polished from there;
 3. **test**: ``LR = (RSS₀ − RSS₁)/σ²``, χ² with the magnitudes' count as degrees of freedom (a
    searched position makes it liberal; the decision reads the next point too), standard errors
    from the Gauss–Newton information;
@@ -26,6 +27,7 @@ One module, one concern: the per-span fit of a user's local effect.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,12 +37,13 @@ from scipy import optimize, stats
 from ..config import Catenary, SpanType
 from ..dropper_table import nominal_dropper_lengths
 from ..effects import EFFECTS, Effect, SpanParameters
+from ..measuring import measuring_pass
 from ..section import Section, uniform_section
 from ..static import solve_static
 from .profile_check import (Influence, ProfileNoise, ProfileSettings, _fit_span, _scan, _span_data,
                             hunter_max_normal_sf, knots_of, prewhiten, scan_positions)
 
-__all__ = ["SPAN_EFFECT_COLUMNS", "SpanEffectFit", "fit_span_effect", "span_candidates", "span_in_line",
+__all__ = ["SPAN_EFFECT_COLUMNS", "MeasuringSetup", "SpanEffectFit", "fit_span_effect", "span_candidates", "span_in_line",
            "test_span_effects"]
 
 #: Columns of ``diagnosis/span_effects.csv``.
@@ -90,18 +93,45 @@ def _design_span(span_type: SpanType, catenary: Catenary) -> SpanParameters:
         measuring_force_n=0.0, span_length_m=span_type.length_m, dropper_x_m=span_type.dropper_positions_m)
 
 
-class _Change:
-    """The static change an effect makes to the CW along one span at given magnitudes [m]."""
+@dataclass(frozen=True)
+class MeasuringSetup:
+    """The correction's measuring pass: pantograph (at the recording's force), speed [m/s],
+    mode, integration step [s] and direction of travel."""
 
-    def __init__(self, effect: Effect, span_type: SpanType, catenary: Catenary, x_m: np.ndarray):
+    pantograph: object
+    speed_m_s: float
+    mode: str
+    time_step_s: float | None
+    direction: int = 1
+
+
+class _Change:
+    """The change an effect makes to the CW along one span that the correction leaves in the
+    residual [m]: the static FE change — or, with a measuring setup, the measuring pass's change —
+    less its straight interpolation through the masts and droppers. The correction moves the
+    span's static CW there to the measured heights, so only what the effect does between them is
+    left (a pass's response to the moves at the droppers is in the base; read through it instead,
+    a change of W by millimetres would leave the pass's dynamic ripple of a fifth of it in the
+    fit). The pass matters for a load: the pantograph meeting the kink it makes rings after it,
+    which moves a static tent's best fit ≈ 1–1.5 m forward and its load 20 % low (measured on
+    campaign o_local)."""
+
+    def __init__(self, effect: Effect, span_type: SpanType, catenary: Catenary, x_m: np.ndarray,
+                 measuring: MeasuringSetup | None = None):
         self.effect, self.span_type, self.catenary, self.x_m = effect, span_type, catenary, x_m
-        self.at = span_type.length_m + x_m
+        self.measuring = measuring
+        self.knots = knots_of(span_type.length_m, span_type.dropper_positions_m)
+        self.at = span_type.length_m + np.concatenate([x_m, self.knots])
         self.base = self._profile(_design_span(span_type, catenary))
         self.n_evaluations = 0
 
     def _profile(self, p: SpanParameters) -> np.ndarray:
         section = span_in_line(self.span_type, self.catenary, p)
-        return solve_static(section, self.catenary).cw_deflection_at(self.at)
+        if self.measuring is None:
+            return solve_static(section, self.catenary).cw_deflection_at(self.at)
+        m = self.measuring
+        return measuring_pass(section, self.catenary, m.pantograph, speed_m_s=m.speed_m_s, mode=m.mode,
+                              time_step_s=m.time_step_s, chainage_m=self.at, direction=m.direction).height_m
 
     def __call__(self, magnitudes: dict) -> np.ndarray:
         p = _design_span(self.span_type, self.catenary)
@@ -109,7 +139,9 @@ class _Change:
              else np.zeros(1 if self.effect.n_draws == 1 else (1, self.effect.n_draws)))
         self.effect.apply(p, z, **magnitudes)
         self.n_evaluations += 1
-        return self._profile(p) - self.base
+        change = self._profile(p) - self.base
+        n = self.x_m.size
+        return change[:n] - np.interp(self.x_m, self.knots, change[n:])
 
 
 @dataclass(frozen=True)
@@ -139,10 +171,15 @@ class SpanEffectFit:
 def fit_span_effect(effect: Effect, span_id: str, profiles: pd.DataFrame, span_type: SpanType, catenary: Catenary,
                     noise: ProfileNoise, settings: ProfileSettings, level: float,
                     influences: dict | None = None, directions: dict | None = None,
-                    grid_step_m: float = 0.5, max_evaluations: int = 200) -> SpanEffectFit:
-    """Fit ``effect``'s magnitudes to one span's whole profile and test it (module docs)."""
+                    measuring: MeasuringSetup | None = None, grid_step_m: float = 0.5,
+                    max_evaluations: int = 200, max_pass_evaluations: int = 40) -> SpanEffectFit:
+    """Fit ``effect``'s magnitudes to one span's whole profile and test it (module docs): on the
+    static change first (a grid over a position, then Nelder–Mead), then — with ``measuring``,
+    the correction's pass — polished on the pass's change (at most ``max_pass_evaluations``
+    passes), from which the test and the standard errors are taken."""
     knots = knots_of(span_type.length_m, span_type.dropper_positions_m)
-    data = _span_data(profiles[profiles["span_id"].astype(str) == str(span_id)], influences, directions)[0]
+    rows = profiles[profiles["span_id"].astype(str) == str(span_id)]
+    data = _span_data(rows, influences, directions)[0]
     fit = _fit_span(data, knots, noise.ar1, noise.step_m)
     xs = np.concatenate([x for x, _, _ in data.runs])
     change = _Change(effect, span_type, catenary, xs)
@@ -192,6 +229,16 @@ def fit_span_effect(effect: Effect, span_id: str, profiles: pd.DataFrame, span_t
     theta0 = best[1]
     res = optimize.minimize(rss, theta0, method="Nelder-Mead",
                             options={"maxfev": max_evaluations, "xatol": 1e-3, "fatol": 1e-3 * sigma ** 2})
+    converged = bool(res.success)
+    if measuring is not None:           # the pass's change, polished from the static optimum
+        if directions:
+            run_id = str(rows["run_id"].iloc[0])
+            measuring = dataclasses.replace(measuring, direction=int(directions.get((str(span_id), run_id), 1)))
+        static_evaluations = change.n_evaluations
+        change = _Change(effect, span_type, catenary, xs, measuring)
+        change.n_evaluations += static_evaluations
+        res = optimize.minimize(rss, res.x, method="Nelder-Mead",
+                                options={"maxfev": max_pass_evaluations, "xatol": 1e-2, "fatol": 1e-2 * sigma ** 2})
     theta = res.x
     rss1 = float(res.fun)
     # Standard errors: Gauss–Newton information of the whitened change.
@@ -225,12 +272,12 @@ def fit_span_effect(effect: Effect, span_id: str, profiles: pd.DataFrame, span_t
                                     scan.links & finite & np.r_[False, finite[:-1]]) if finite.any() else 1.0)
     explained = bool(p_value < level and p_global > level and p_local > level)
     return SpanEffectFit(str(span_id), effect.name, estimates, float(lr), p_value, p_global, p_local, explained,
-                         bool(res.success), change.n_evaluations)
+                         converged, change.n_evaluations)
 
 
 def test_span_effects(names, span_ids, profiles: pd.DataFrame, span_type: SpanType, catenary: Catenary,
                       noise: ProfileNoise, settings: ProfileSettings, level: float, *, influences=None,
-                      directions=None, log=None) -> pd.DataFrame:
+                      directions=None, measuring: MeasuringSetup | None = None, log=None) -> pd.DataFrame:
     """Every span-scope effect of ``names`` fitted on every span of ``span_ids``
     (:data:`SPAN_EFFECT_COLUMNS`); a span is explained by the effect that explains it with the
     largest LR."""
@@ -238,7 +285,7 @@ def test_span_effects(names, span_ids, profiles: pd.DataFrame, span_type: SpanTy
     for span_id in span_ids:
         for name in names:
             fit = fit_span_effect(EFFECTS[name], span_id, profiles, span_type, catenary, noise, settings, level,
-                                  influences, directions)
+                                  influences, directions, measuring)
             rows.append(fit.row())
             if log is not None:
                 log.info("%s: %s fitted: %s; LR %.1f (p %.2g); left: global p %.2g, local p %.2g: %s", span_id, name,
