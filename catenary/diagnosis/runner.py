@@ -26,6 +26,7 @@ shows them before and after.
 from __future__ import annotations
 
 import dataclasses
+import json
 import logging
 import time
 from dataclasses import dataclass, field
@@ -405,11 +406,13 @@ def diagnose_line(span_type: SpanType, catenary: Catenary, data, places, identif
 
 def explained_by(check: SpanCheck, fitted: pd.DataFrame) -> SpanCheck:
     """``check`` with every unexplained span that a fitted span-scope effect explains marked
-    explained by it (``explained_by``; the effect with the largest LR)."""
+    explained by it (``explained_by``: the effect with the largest LR and its magnitudes, SI)."""
     best = (fitted[fitted["explained"].astype(bool)].sort_values("lr_statistic", ascending=False)
-            .drop_duplicates("span_id").set_index("span_id")["effect"])
+            .drop_duplicates("span_id").set_index("span_id"))
+    text = {span: f"{r.effect} (" + ", ".join(f"{k} {v[0]:.4g}" for k, v in json.loads(r.parameters).items()) + ")"
+            for span, r in best.iterrows()}
     spans = check.spans.copy()
-    by = spans["span_id"].map(best).fillna("")
+    by = spans["span_id"].map(text).fillna("")
     spans["explained_by"] = np.where(spans["unexplained"].astype(bool), by, "")
     spans["unexplained"] = spans["unexplained"].astype(bool) & (spans["explained_by"] == "")
     return SpanCheck(spans, check.sections, check.noise)

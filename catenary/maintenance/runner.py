@@ -227,8 +227,13 @@ def _inspections(spans_check: pd.DataFrame, sections_check: pd.DataFrame | None,
         where = (f"at chainage {r.peak_chainage_m:.1f} m ({r.peak_size_mm:+.1f} mm; a point load of "
                  f"{r.peak_load_n:.0f} N would bend the CW so)" if np.isfinite(r.peak_chainage_m)
                  else "at its droppers")
-        what = (f"{r.explained_by} explains it" if getattr(r, "explained_by", "") else
-                "its profile departs from the model")
+        own = getattr(r, "explained_by", "")
+        if own:
+            rows.append({"span_id": r.span_id, "section_id": r.section_id, "start_chainage_m": r.start_chainage_m,
+                         "end_chainage_m": r.end_chainage_m, "input": "span", "p_out_of_tolerance": np.nan,
+                         "action": f"inspect span: {own} explains its profile", "status": "explained by an effect"})
+            continue
+        what = "its profile departs from the model"
         rows.append({"span_id": r.span_id, "section_id": r.section_id, "start_chainage_m": r.start_chainage_m,
                      "end_chainage_m": r.end_chainage_m, "input": "span", "p_out_of_tolerance": np.nan,
                      "action": f"inspect span: {what} {where}", "status": "unexplained"})
