@@ -120,13 +120,13 @@ def span_check_validation(spans: pd.DataFrame, sections: pd.DataFrame, listed: p
             found = local["peak_chainage_m"] - local["start_chainage_m"]
             error = float(np.nanmax(np.abs(found.to_numpy() - local["span_id"].map(true_x).to_numpy(dtype=float))))
     rows = listed[listed["span_id"].isin(table.loc[hit, "span_id"])]
-    adjusts = rows["action"].astype(str).apply(lambda a: a.startswith(_ADJUSTMENTS))
-    devices = listed["action"].astype(str).str.startswith("inspect the tensioning device of section")
+    adjusts = sum(a.startswith(_ADJUSTMENTS) for a in rows["action"].astype(str))
+    devices = sum(a.startswith("inspect the tensioning device of section") for a in listed["action"].astype(str))
     unaffected = table.loc[~hit, "p_value"].to_numpy(dtype=float)
     return {"campaign": campaign, "span_type": span_type, "n_spans": len(table), "n_affected": int(hit.sum()),
             "n_affected_flagged": int((hit & flagged).sum()), "n_others": int((~hit).sum()),
             "n_others_flagged": int((~hit & flagged).sum()),
             "ks_p_value_unaffected": float(stats.kstest(unaffected, "uniform").pvalue) if unaffected.size else np.nan,
-            "max_position_error_m": error, "adjustments_in_affected_spans": int(adjusts.sum()),
-            "device_rows": int(devices.sum()), "sections_flagged": ";".join(
+            "max_position_error_m": error, "adjustments_in_affected_spans": int(adjusts),
+            "device_rows": int(devices), "sections_flagged": ";".join(
                 sections.loc[sections["unexplained"].astype(str).str.lower().eq("true"), "section_id"].astype(str))}
