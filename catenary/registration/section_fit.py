@@ -295,7 +295,8 @@ def _log_prior(table_std_m: float, prior_std_m: float) -> float:
 
 def fit_section(evidence: Evidence, table_m: np.ndarray, listed: np.ndarray, lengths_m: np.ndarray, *,
                 initial: ChainageMap, degree: int, prior_std_m: float,
-                fixed_map: ChainageMap | None = None, max_evaluations: int = 1500) -> SectionFit:
+                fixed_map: ChainageMap | None = None, fixed_table_std_m: float | None = None,
+                max_evaluations: int = 1500) -> SectionFit:
     """The supports, the map and the table's accuracy of one section (module docs).
 
     Parameters
@@ -317,6 +318,9 @@ def fit_section(evidence: Evidence, table_m: np.ndarray, listed: np.ndarray, len
         The configured accuracy of the table [m]: the prior's mode.
     fixed_map : ChainageMap, optional
         Keep this map; only the standard deviations are searched.
+    fixed_table_std_m : float, optional
+        Keep this accuracy of the table [m] (a table found from the same trace, whose errors
+        are the trace's own and not independent of it); then ``table_std_m`` is this value.
     max_evaluations : int
         Largest number of marginal likelihoods the search evaluates.
 
@@ -339,22 +343,27 @@ def fit_section(evidence: Evidence, table_m: np.ndarray, listed: np.ndarray, len
     nodes = np.linspace(t[listed].min(), t[listed].max(), degree + 1)
     lo, hi = np.log(_STD_RANGE_M[0]), np.log(_STD_RANGE_M[1])
 
+    n_std = 1 if fixed_table_std_m is not None else 2
+
     def unpack(theta):
         if fixed_map is not None:
             chainage_map, rest = fixed_map, theta
         else:
-            chainage_map, rest = _map_from_nodes(theta[:-2], nodes, reference), theta[-2:]
-        return chainage_map, float(np.exp(np.clip(rest[0], lo, hi))), float(np.exp(np.clip(rest[1], lo, hi)))
+            chainage_map, rest = _map_from_nodes(theta[:-n_std], nodes, reference), theta[-n_std:]
+        stds = np.exp(np.clip(rest, lo, hi))
+        table_std = float(fixed_table_std_m) if fixed_table_std_m is not None else float(stds[0])
+        return chainage_map, table_std, float(stds[-1])
 
     def cost(theta):
         chainage_map, table_std, length_std = unpack(theta)
         if np.any(chainage_map.slope(t) <= 0):
             return np.inf
         value = chain.run(chainage_map, table_std, length_std)
-        return -(value + _log_prior(table_std, prior_std_m)) if np.isfinite(value) else np.inf
+        prior = _log_prior(table_std, prior_std_m) if fixed_table_std_m is None else 0.0
+        return -(value + prior) if np.isfinite(value) else np.inf
 
-    start = [np.log(prior_std_m), np.log(0.1)]
-    steps = [_SIMPLEX_LOG, _SIMPLEX_LOG]
+    start = ([np.log(prior_std_m)] if fixed_table_std_m is None else []) + [np.log(0.1)]
+    steps = [_SIMPLEX_LOG] * n_std
     if fixed_map is None:
         start = list(initial.to_recorded(nodes)) + start
         steps = [_SIMPLEX_M] * nodes.size + steps
@@ -364,6 +373,10 @@ def fit_section(evidence: Evidence, table_m: np.ndarray, listed: np.ndarray, len
                       options={"initial_simplex": simplex, "xatol": 1e-3, "fatol": 1e-3,
                                "maxfev": max_evaluations})
     chainage_map, table_std, length_std = unpack(result.x)
+    # The map's coefficients are fitted to the same masts: the maximum's variance is low by their
+    # count, as a residuals' mean square over n instead of n − p (≈ 5 % on σ_t for 21 masts).
+    n_fitted = 0 if fixed_map is not None or fixed_table_std_m is not None else degree + 1
+    table_std *= float(np.sqrt(listed.sum() / (listed.sum() - n_fitted))) if listed.sum() > n_fitted else 1.0
     log_likelihood, (gamma, cross, table) = chain.run(chainage_map, table_std, length_std, posterior=True)
     position, std = _place(chain, gamma, table, chainage_map, table_std)
     variance = (chain.grid ** 2 * gamma).sum(axis=1) - ((chain.grid * gamma).sum(axis=1)) ** 2
