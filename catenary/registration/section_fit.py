@@ -73,6 +73,9 @@ EVIDENCE_TEMPER = 1.5
 #: Weight of the configured ``mast_table_std_m`` as a prior on the table's accuracy, in masts:
 #: a section of 20 masts measures it ten times more than the config says it.
 PRIOR_MASTS = 2.0
+#: The search stops when its simplex is this small (in metres of the map's nodes and in the
+#: standard deviations' logarithms: 5 mm, 0.5 %) and its log-likelihoods this close.
+_X_TOLERANCE, _F_TOLERANCE = 5e-3, 1e-2
 #: Range of the standard deviations searched [m].
 _STD_RANGE_M = (1e-3, 5.0)
 #: Node spacing of the map's parametrisation in the search: its values at ``degree + 1`` table
@@ -370,7 +373,7 @@ def fit_section(evidence: Evidence, table_m: np.ndarray, listed: np.ndarray, len
     x0 = np.asarray(start, dtype=float)
     simplex = np.vstack([x0] + [x0 + np.eye(x0.size)[i] * steps[i] for i in range(x0.size)])
     result = minimize(cost, x0, method="Nelder-Mead",
-                      options={"initial_simplex": simplex, "xatol": 1e-3, "fatol": 1e-3,
+                      options={"initial_simplex": simplex, "xatol": _X_TOLERANCE, "fatol": _F_TOLERANCE,
                                "maxfev": max_evaluations})
     chainage_map, table_std, length_std = unpack(result.x)
     # The map's coefficients are fitted to the same masts: the maximum's variance is low by their
