@@ -42,7 +42,7 @@ RECORDING = ("r_table", "r_stagger", "r_no_table", "r_height_no_table", "r_exact
 #: with W within 1 mm RMS of the truth.
 LOOSE_TABLE = {"r_height_loose_03": 0.95, "r_height_loose_1": 0.90}
 #: The table's estimated accuracy must lie within this fraction of the planted one (pooled over the
-#: run's sections) and of what each section's table realized (the planted σ itself varies by ≈ 16 %
+#: run's sections) and of what each section's table realized (the planted σ itself varies by ≈ 10 %
 #: from one section of 21 masts to the next).
 TABLE_STD_TOLERANCE = 0.30
 #: Measured by another car than the correction's model (issue [13]): correction, identification

@@ -70,8 +70,8 @@ def test_a_loose_tables_section_is_found_jointly_and_the_table_measured(catenary
     assert np.max(np.abs(error)) < 0.15, error
     # The map's scale to 0.01 % (the section's 1.2 km read by every support).
     assert fit.chainage_map.scale == pytest.approx(SCALE, abs=1e-4)
-    # The table's accuracy: the realized error's standard deviation about the best line (what
-    # any estimate from 21 masts can know; the planted σ itself is known only to ≈ 16 %) within
+    # The table's accuracy: the realized error's standard deviation about the best line (what any
+    # estimate from 21 masts can know; of uniform errors, the planted σ itself to ≈ 10 %) within
     # 15 %: the supports' own error (≈ 0.03 m) is a twentieth of the table's (measured 0.999 and
     # 0.997 of it; six draws 0.96–1.00).
     deviation = table - masts

@@ -505,13 +505,14 @@ class _Placement:
 
 
 def _place_one_by_one(trace: Trace, sec: _TableSection, guess: np.ndarray, scale: float, type_lag: dict,
-                      lag_m: float, settings: RegistrationSettings, catenary: Catenary, run_id: str) -> _Placement:
+                      lag_m: float, settings: RegistrationSettings, catenary: Catenary, run_id: str,
+                      table_from_trace: bool) -> _Placement:
     """Each mast's support fitted on its own (the stagger's reversal; the height's pattern where the
     stagger is not recorded), the map fitted robustly to them, each mast placed by the trace and
     the table weighed by their errors (module docs, steps 2–4). The table's accuracy is measured by
     the matched masts' residuals against the map less the fits' own variances
     (:func:`.section_fit.table_std_from_residuals`, the reversals' alone where at least 3), and
-    the map fitted again with it."""
+    the map fitted again with it; reported NaN for a table found from the same trace."""
     t = sec.table_m
     fits, methods = [], []
     for j in range(t.size):
@@ -548,7 +549,7 @@ def _place_one_by_one(trace: Trace, sec: _TableSection, guess: np.ndarray, scale
         residual[listed] = position[listed] - t[listed]
     sec = _TableSection(sec.section_id, sec.mast_id, t, sec.span_type, table_std, sec.missing, sec.extra)
     rows = _place_masts(sec, fitted, inlier, position, std, residual, run_id, methods)
-    return _Placement(rows, fitted, n_matched, identity, rms, accuracy)
+    return _Placement(rows, fitted, n_matched, identity, rms, float("nan") if table_from_trace else accuracy)
 
 
 def _place_by_height(trace: Trace, sec: _TableSection, guess: np.ndarray, scale: float, type_lag: dict,
@@ -694,7 +695,8 @@ def register_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
         guess = coarse[0]
         placed = (_place_by_height(trace, sec, guess, scale, type_lag, settings, catenary, run_id, table_from_trace)
                   if method == "height"
-                  else _place_one_by_one(trace, sec, guess, scale, type_lag, lag_m, settings, catenary, run_id))
+                  else _place_one_by_one(trace, sec, guess, scale, type_lag, lag_m, settings, catenary, run_id,
+                                         table_from_trace))
         n_matched = placed.n_matched
         if placed.why or n_matched < required:
             why = placed.why or (f"the trace's {method} confirms {n_matched} of the {t.size} masts "

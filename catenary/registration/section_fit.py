@@ -28,20 +28,22 @@ prior on ``σ_t`` worth :data:`PRIOR_MASTS` masts (a scaled inverse-χ² on ``σ
 accuracy is measured by the run — how far the masts the trace and the spans place lie from where
 the table puts them, less what the trace itself cannot tell — and the config value only decides
 where the run cannot. A position on the grid stands for a cell of ``GRID_STEP_M``: its
-quantisation (``step²/12`` per position) is added to both variances, so a table more precise
-than the grid is not penalised for it; there the final positions come from the Gaussian product
-of the table's and the rest's evidence (``_place``), which the grid cannot resolve.
+quantisation (``step²/12`` per position, twice that per span) is added to both variances, so a
+table more precise than the grid is not penalised for it; there the final positions come from the
+Gaussian product of the table's and the rest's evidence (``_place``), which the grid cannot
+resolve. The maximum's ``σ_t`` is low by the map's fitted coefficients, as a mean square over
+``n`` instead of ``n − p``: it is scaled by ``√(n / (n − p))``.
 
 Measured on the default campaign's line recorded without stagger by a car whose odometer reads
-0.3 % long and 7 m ahead (``r_height_loose_03`` and ``r_height_loose_1`` of ``make validate``;
-docs/input_formats.md gives the figures through the rules). The supports lie 0.09–0.11 m (RMS)
-from the truth, where each support's own evidence with the table alone gave 0.12 m (±0.3 m
-table) and 0.25 m (±1 m table), the table's accuracy is found within 10–25 % per section, and
-the result hardly depends on ``κ`` (1, 1.5, 2: RMS 0.114, 0.099, 0.098 m; ``σ_t`` the same
-within 2 %).
-
-One more figure says what it costs: a section of 21 masts on a grid of 61 positions takes a few
-hundred forward–backward passes of 20 products of 61×61 matrices, ≈ 0.5 s.
+0.3 % long and 7 m ahead, through the registration (``r_height_loose_03`` and ``r_height_loose_1``
+of ``make validate``; docs/input_formats.md): the masts lie 0.104 / 0.102 m (RMS) from the truth,
+0.30 m at worst, with a table within ±0.3 m / ±1 m, where mast by mast they lay 0.21 / 0.59 m with
+tails of 0.9 / 1.7 m; each section's table accuracy within 7 % of what its table's errors
+realized. ``κ`` matters only where the evidence would otherwise be trusted too much: 1.5 and 2
+give 0.104 / 0.104 m and 0.102 / 0.098 m; κ = 1 (the misfit at face value) put one section of the
+±1 m table's run 3.7 m off. The fit costs 0.1–0.3 s of CPU per section of 21 masts (one
+forward–backward pass of 20 products of 61 × 61 matrices per trial of the map and the two
+standard deviations).
 
 For a trace whose supports each come with a Gaussian error (the stagger's reversals, to a
 centimetre) the table's accuracy is the residuals' mean square less the fits' own variances
@@ -67,8 +69,8 @@ __all__ = ["EVIDENCE_TEMPER", "GRID_STEP_M", "PRIOR_MASTS", "Evidence", "Section
 GRID_STEP_M = 0.05
 #: Widening κ of the height's evidence: the misfit's curvature understates a mast fit's error,
 #: by 1.08 (N2) and 1.89 (N3) on the correction's own model of a measuring pass
-#: (tests/test_registration_supports.py); 1.5 lies between (module docs: the results hardly
-#: depend on it).
+#: (tests/test_registration_supports.py); 1.5 lies between (module docs: 1.5 and 2 give the
+#: same supports; 1 trusts the misfit too much).
 EVIDENCE_TEMPER = 1.5
 #: Weight of the configured ``mast_table_std_m`` as a prior on the table's accuracy, in masts:
 #: a section of 20 masts measures it ten times more than the config says it.
