@@ -8,8 +8,9 @@ section. For every pair of consecutive masts of a section (a *span*, id
 
 1. **Type.** The ``span_type`` of the left mast in the masts file if given (it must be a type of
    the catenary config and the measured length must match its length within
-   ``span_type_tolerance_m``), else the type whose length is nearest to the measured one within
-   that tolerance.
+   ``span_type_tolerance_m``; where the masts file alone placed one of the span's masts, a
+   mismatch names that mast and how far off it puts it), else the type whose length is nearest
+   to the measured one within that tolerance.
 2. **Coverage.** The span must hold recording samples, and no run without a valid height
    (drop-outs, or no samples at all) inside the span may be longer than ``max_gap_m`` (default:
    the smallest dropper spacing of the span type, masts included), otherwise a dropper could sit
@@ -47,9 +48,11 @@ section. For every pair of consecutive masts of a section (a *span*, id
    ``± cut_search_m``: the span is rejected when the best shift is beyond ``max_cut_error_m`` and
    explains the trace better than the cut by more than ``cut_statistic`` residual variances.
 6. **Uncertainty of the cut.** Where the registration gives each mast's position with a
-   standard error, the error of W it causes (through the slopes of the local fits) must stay
-   below ``max_cut_w_error_m``: a span whose end the trace does not show (a section's end, with
-   a mast table of decimetres) is rejected rather than used with a W a few millimetres off.
+   standard error (and, for a height trace's section fit, the correlation of neighbours'), the
+   error of W it causes (through the slopes of the local fits) must stay below
+   ``max_cut_w_error_m``: a span whose end the trace does not show (a section's end, with a
+   mast table of decimetres) is rejected rather than used with a W a few millimetres off. A used
+   span carries it (``w_support_std_m``) beside the local fits' own (``w_noise_std_m``).
 
 A span that fails a step is **rejected** with its reason(s) in the report; only file-level
 problems raise :class:`~catenary.errors.InputError`. Every span of every run is in the report,
