@@ -58,6 +58,10 @@ def registration_lines(sections: pd.DataFrame, prior_std_m: float) -> list[str]:
     with their reasons."""
     lines = []
     for run_id, rows in sections.groupby("run_id", sort=False):
+        if (rows["status"] == "unregistered").all():
+            lines += [f"**Registration, run {run_id}:** switched off: the masts file's chainages are taken as "
+                      "they are.", ""]
+            continue
         registered = rows[rows["status"] == "registered"]
         accuracy = registered["table_std_m"].dropna()
         text = f"**Registration, run {run_id}:** {len(registered)} of {len(rows)} sections registered"

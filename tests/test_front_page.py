@@ -76,3 +76,6 @@ def test_the_front_page_says_the_tables_accuracy_each_run_measured_and_the_refus
             "run measures it (prior ``mast_table_std_m`` 0.2 m)") in page
     assert "refused: section S03, run R1: registration failed: the trace's height confirms 2 of the 21 masts" in page
     publish_parts(page, writer="html", settings_overrides={"report_level": 2, "halt_level": 2})
+    off = sections.assign(status="unregistered")
+    assert "**Registration, run R1:** switched off" in front_page("T\n=\n", SPANS, CORRECTION, {"N2": S_OPT},
+                                                                   {"N2": None}, sections=off, prior_std_m=0.2)
