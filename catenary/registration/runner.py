@@ -558,8 +558,11 @@ def _place_by_height(trace: Trace, sec: _TableSection, guess: np.ndarray, scale:
     """The section's supports found jointly from the height, its spans and the table
     (:mod:`.section_fit`), the table's accuracy measured on the way. A mast is confirmed
     (``matched``) when its own pattern's best fit lies within ``max_residual_m`` of where the
-    whole section places it. Where the supports agree with the recording's chainage as it is,
-    the map is the identity and the section is fitted again on it. A table found from the same
+    whole section places it. Where the supports' own fits agree with the recording's chainage as
+    it is, the map is the identity and each mast sits where the table puts it plus its residual
+    about the fitted map: the fitted offset and scale are then the height's lag error, which must
+    not move the masts (on the hand-made example's sag-only trace, fitting with the identity map
+    held put its last mast 1 m off its exact table). A table found from the same
     trace (``table_from_trace``) is no independent evidence: it only starts the fit, weighted as
     :data:`_FOUND_TABLE_STD_M`, and its accuracy is not measured (NaN)."""
     t = sec.table_m
@@ -575,10 +578,7 @@ def _place_by_height(trace: Trace, sec: _TableSection, guess: np.ndarray, scale:
         evidence = height_evidence(trace, guess, sec.span_type, catenary, scale, type_lag, settings.search_m)
         own = evidence.own_m
         seen = listed & np.isfinite(own)
-        # the supports' own fits agree with the recording's chainage as it is: the map is the identity
-        identity = _agrees_with_identity(t, own, seen, np.full(t.size, "height"), settings)
-        fixed = ChainageMap.identity(float(t[0])) if identity else None
-        fit = fit_section(evidence, t, listed, lengths, fixed_map=fixed, **options)
+        fit = fit_section(evidence, t, listed, lengths, **options)
         # a support the fit puts near its grid's edge may lie beyond it (a loose table's coarse
         # line off by a metre): the grid is centred again on where the section's fit puts them
         if np.all(np.abs(fit.position_m - guess) <= settings.search_m - _RECENTRE_MARGIN_M):
@@ -588,8 +588,16 @@ def _place_by_height(trace: Trace, sec: _TableSection, guess: np.ndarray, scale:
     fitted = fit.chainage_map
     confirmed = seen & (np.abs(own - fit.position_m) <= settings.max_residual_m)
     slope = fitted.slope(t)
+    offset = (fit.position_m - fitted.to_recorded(t)) / slope          # about the map, in table metres
     std, corr = fit.std_m, fit.corr_next
-    if not identity:
+    # the supports' own fits agree with the recording's chainage as it is: the map is the identity
+    identity = _agrees_with_identity(t, own, seen, np.full(t.size, "height"), settings)
+    if identity:
+        fitted, slope = ChainageMap.identity(float(t[0])), np.ones(t.size)
+        std = std / fit.chainage_map.slope(t)
+        chain = recorded = t + offset
+    else:
+        chain, recorded = fitted.to_table(fit.position_m), fit.position_m
         # A map fitted to the height carries the dynamic lag's error, height_lag_std_m at each end
         # of the section independently (_agrees_with_identity): it moves the section's supports
         # together, so it adds to each position's variance and to neighbours' covariance.
@@ -599,17 +607,16 @@ def _place_by_height(trace: Trace, sec: _TableSection, guess: np.ndarray, scale:
         covariance = corr[:-1] * std[:-1] * std[1:] + lag2 * ((1.0 - f[:-1]) * (1.0 - f[1:]) + f[:-1] * f[1:])
         std = np.sqrt(variance)
         corr = np.r_[covariance / (std[:-1] * std[1:]), np.nan]
-    residual = np.where(confirmed, (fit.position_m - fitted.to_recorded(t)) / slope, np.nan)
+    residual = np.where(confirmed, offset, np.nan)
     n_matched = int(confirmed.sum())
     rms = float(np.sqrt(np.nanmean(residual ** 2))) if n_matched else float("nan")
-    chain = fitted.to_table(fit.position_m)
     rows = []
     for j in range(t.size):
         status = MISSING if sec.missing[j] else (MATCHED if confirmed[j] else TABLE_ONLY)
         rows.append({"run_id": run_id, "section_id": sec.section_id, "mast_id": sec.mast_id[j],
                      "span_type": sec.span_type[j] or "", "status": status, "method": "height",
                      "table_chainage_m": float("nan") if sec.missing[j] else float(t[j]),
-                     "recorded_chainage_m": float(fit.position_m[j]), "chainage_m": float(chain[j]),
+                     "recorded_chainage_m": float(recorded[j]), "chainage_m": float(chain[j]),
                      "std_m": float(std[j] / slope[j]), "residual_m": float(residual[j]),
                      "corr_next": float(corr[j])})
     return _Placement(rows + _extra_rows(run_id, sec), fitted, n_matched, identity, rms,
