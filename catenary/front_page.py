@@ -52,6 +52,31 @@ def spans_lines(spans_report: pd.DataFrame, span_type: str) -> list[str]:
     return [text + ".", ""]
 
 
+def registration_lines(sections: pd.DataFrame, prior_std_m: float) -> list[str]:
+    """Per run, the mast table's accuracy as the run measured it (``registration/sections.csv``'s
+    ``table_std_m``) against its prior, how well the masts are placed, and the sections refused
+    with their reasons."""
+    lines = []
+    for run_id, rows in sections.groupby("run_id", sort=False):
+        if (rows["status"] == "unregistered").all():
+            lines += [f"**Registration, run {run_id}:** switched off: the masts file's chainages are taken as "
+                      "they are.", ""]
+            continue
+        registered = rows[rows["status"] == "registered"]
+        accuracy = registered["table_std_m"].dropna()
+        text = f"**Registration, run {run_id}:** {len(registered)} of {len(rows)} sections registered"
+        if len(accuracy):
+            low, high = _number(float(accuracy.min()), 2), _number(float(accuracy.max()), 2)
+            text += (f"; the mast table is accurate to {low}–{high} m as the run measures it "
+                     f"(prior ``mast_table_std_m`` {_number(prior_std_m, 3)} m), the masts placed to "
+                     f"{_number(float(np.sqrt(np.mean(registered['support_std_m'] ** 2))), 2)} m (RMS standard error)")
+        refused = rows[rows["status"] == "refused"]
+        if len(refused):
+            text += "; refused: " + "; ".join(str(r) for r in refused["reason"])
+        lines += [text + ".", ""]
+    return lines
+
+
 def correction_lines(summary: pd.DataFrame, span_type: str) -> list[str]:
     """The correction's convergence for ``span_type``."""
     rows = summary[summary["span_type"] == span_type]
@@ -151,6 +176,7 @@ def unexplained_lines(spans: pd.DataFrame | None, sections: pd.DataFrame | None)
 def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.DataFrame,
                s_opt: dict[str, pd.DataFrame], findings: dict[str, pd.DataFrame | None],
                model_error: dict[str, pd.DataFrame | None] | None = None,
+               sections: pd.DataFrame | None = None, prior_std_m: float = float("nan"),
                checks: dict[str, tuple[pd.DataFrame, pd.DataFrame] | None] | None = None) -> str:
     """The report's front page (reStructuredText).
 
@@ -165,6 +191,10 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
         the diagnosis was not part of the run).
     model_error : dict, optional
         Per span type: its ``identification/model_error.csv`` (None or empty: not measured).
+    sections : DataFrame, optional
+        ``registration/sections.csv`` (:func:`registration_lines`).
+    prior_std_m : float
+        The configured ``registration.mast_table_std_m`` [m].
     checks : dict, optional
         Per span type: its ``diagnosis/spans.csv`` and ``sections.csv`` (None: not run).
     """
@@ -173,6 +203,8 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
     n_used = int((spans_report["status"] == "used").sum())
     lines += [f"The recording held {len(spans_report)} spans: {n_used} used, {len(spans_report) - n_used} "
               "rejected (every rejection and its reason: *Whole recording* › *2 Projection*).", ""]
+    if sections is not None and len(sections):
+        lines += registration_lines(sections, prior_std_m)
     for span_type in s_opt:
         lines += _heading(span_type, "~")
         lines += spans_lines(spans_report, span_type)
@@ -190,6 +222,7 @@ def write_front_page(path: str | Path, intro_path: str | Path, spans_report_path
                      correction_summary_path: str | Path, s_opt_paths: dict[str, str],
                      findings_paths: dict[str, str | None],
                      model_error_paths: dict[str, str | None] | None = None,
+                     sections_path: str | Path | None = None, prior_std_m: float = float("nan"),
                      check_paths: dict[str, tuple[str, str] | None] | None = None) -> Path:
     """Read the pipeline's outputs, write :func:`front_page` to ``path``."""
     text = front_page(
@@ -199,6 +232,9 @@ def write_front_page(path: str | Path, intro_path: str | Path, spans_report_path
         {t: pd.read_csv(p) for t, p in s_opt_paths.items()},
         {t: (pd.read_csv(p) if p else None) for t, p in findings_paths.items()},
         {t: (pd.read_csv(p) if p else None) for t, p in (model_error_paths or {}).items()},
+        pd.read_csv(sections_path, dtype={"run_id": str, "section_id": str, "reason": str},
+                    keep_default_na=False, na_values={"table_std_m": [""], "support_std_m": [""]})
+        if sections_path else None, prior_std_m,
         {t: ((pd.read_csv(p[0], dtype={"span_id": str, "section_id": str, "group": str, "explained_by": str},
                           keep_default_na=False, na_values={c: [""] for c in ("peak_chainage_m", "peak_size_mm")}),
               pd.read_csv(p[1], dtype={"section_id": str})) if p else None)

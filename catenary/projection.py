@@ -8,8 +8,9 @@ section. For every pair of consecutive masts of a section (a *span*, id
 
 1. **Type.** The ``span_type`` of the left mast in the masts file if given (it must be a type of
    the catenary config and the measured length must match its length within
-   ``span_type_tolerance_m``), else the type whose length is nearest to the measured one within
-   that tolerance.
+   ``span_type_tolerance_m``; where the masts file alone placed one of the span's masts, a
+   mismatch names that mast and how far off it puts it), else the type whose length is nearest
+   to the measured one within that tolerance.
 2. **Coverage.** The span must hold recording samples, and no run without a valid height
    (drop-outs, or no samples at all) inside the span may be longer than ``max_gap_m`` (default:
    the smallest dropper spacing of the span type, masts included), otherwise a dropper could sit
@@ -47,9 +48,11 @@ section. For every pair of consecutive masts of a section (a *span*, id
    ``± cut_search_m``: the span is rejected when the best shift is beyond ``max_cut_error_m`` and
    explains the trace better than the cut by more than ``cut_statistic`` residual variances.
 6. **Uncertainty of the cut.** Where the registration gives each mast's position with a
-   standard error, the error of W it causes (through the slopes of the local fits) must stay
-   below ``max_cut_w_error_m``: a span whose end the trace does not show (a section's end, with
-   a mast table of decimetres) is rejected rather than used with a W a few millimetres off.
+   standard error (and, for a height trace's section fit, the correlation of neighbours'), the
+   error of W it causes (through the slopes of the local fits) must stay below
+   ``max_cut_w_error_m``: a span whose end the trace does not show (a section's end, with a
+   mast table of decimetres) is rejected rather than used with a W a few millimetres off. A used
+   span carries it (``w_support_std_m``) beside the local fits' own (``w_noise_std_m``).
 
 A span that fails a step is **rejected** with its reason(s) in the report; only file-level
 problems raise :class:`~catenary.errors.InputError`. Every span of every run is in the report,
@@ -92,7 +95,8 @@ line order."""
 #: Columns of ``results/{span_type}/profiles.parquet``: the measured samples of each used span
 #: and run (:attr:`ProjectionResult.profiles`).
 PROFILE_COLUMNS = ("span_id", "run_id", "x_m", "height_m")
-QUALITY_COLUMNS = ("fit_rms_m", "min_samples_per_point", "outliers_removed", "max_gap_m", "cut_shift_m")
+QUALITY_COLUMNS = ("fit_rms_m", "min_samples_per_point", "outliers_removed", "max_gap_m", "cut_shift_m",
+                   "w_support_std_m", "w_noise_std_m")
 RUN_COLUMNS = ("run_id", "direction", "speed_kmh", "force_n")
 #: Margin of the section-wide check of the cuts (module docs, step 5a) on a height trace [m]. Its
 #: line is read from the kink signals' comb on a 0.05 m grid and carries the dynamic lag's bias,
@@ -198,7 +202,11 @@ class ProjectionResult:
         span's local fits), ``min_samples_per_point`` (fewest inliers of a local fit),
         ``outliers_removed`` (samples rejected as spikes, summed over the span's fits),
         ``max_gap_m`` (longest run without a valid height inside the span), ``cut_shift_m`` (where the
-        check of the cut puts the span's pattern relative to the cut; NaN unchecked).
+        check of the cut puts the span's pattern relative to the cut; NaN unchecked),
+        ``w_support_std_m`` (RMS over the droppers of W's standard error caused by the errors of
+        the span's two mast positions, step 6; NaN where the registration gives none),
+        ``w_noise_std_m`` (RMS over the droppers of W's standard error from the local fits'
+        residuals: the sensor's part).
     report : pandas.DataFrame
         One row per span and run (:data:`REPORT_COLUMNS`), ``status`` ``"used"`` or
         ``"rejected"``, ``reason`` empty when used, else every reason joined by ``"; "``.
@@ -240,6 +248,8 @@ class LocalFit:
         Sum of squared inlier residuals [m²].
     slope : float
         Fitted slope of the height at the point [m/m] (the mean of both sides for the kinked line).
+    height_std_m : float
+        Standard error of ``height_m`` from the inliers' residuals [m].
     settled : bool
         False when the inlier set still changed after ``max_iterations`` reweighting passes:
         the height is then not a converged robust estimate and the span is rejected.
@@ -252,6 +262,7 @@ class LocalFit:
     residual_sq_sum_m2: float
     slope: float = float("nan")
     settled: bool = True
+    height_std_m: float = float("nan")
 
 
 def _n_params(model: str) -> int:
@@ -324,8 +335,11 @@ def robust_local_fit(x_m: np.ndarray, h_m: np.ndarray, x0_m: float, settings: Pr
     coef = np.linalg.lstsq(a[keep], h_m[keep], rcond=None)[0]
     r = h_m[keep] - a[keep] @ coef
     ss = float(r @ r)
+    # the intercept's variance: σ² (AᵀA)⁻¹₀₀, σ² from the inliers' residuals
+    inverse = np.linalg.pinv(a[keep].T @ a[keep])
+    height_std = float(np.sqrt(ss / max(n_in - a.shape[1], 1) * inverse[0, 0]))
     return LocalFit(float(coef[0]), n_in, n - n_in, float(np.sqrt(ss / n_in)), ss,
-                    float(coef[1]) / settings.fit_half_window_m, settled)
+                    float(coef[1]) / settings.fit_half_window_m, settled, height_std)
 
 
 # --------------------------------------------------------------------------------------------
@@ -347,6 +361,9 @@ class _Span:
     refused: str = ""            # why the registration could not place this span's section
     left_std_m: float = float("nan")     # standard errors of the masts' registered positions
     right_std_m: float = float("nan")
+    corr: float = float("nan")           # correlation of the two positions' errors (NaN: independent)
+    left_method: str = ""                # what placed each mast (registration/masts.csv's method)
+    right_method: str = ""
 
     @property
     def length_m(self) -> float:
@@ -383,12 +400,14 @@ def _registered_spans(run: RunRegistration) -> list[_Span]:
         ids = rows["mast_id"].to_numpy(dtype=object)
         ch = rows["chainage_m"].to_numpy(dtype=float)
         std = rows["std_m"].to_numpy(dtype=float)
+        corr = rows["corr_next"].to_numpy(dtype=float) if "corr_next" in rows else np.full(len(rows), np.nan)
+        method = rows["method"].astype(str).to_numpy(dtype=object)
         types = rows["span_type"].to_numpy(dtype=object)
         for i in range(len(rows) - 1):
             out.append(_Span(len(out), f"{ids[i]}-{ids[i + 1]}", run.run_id, str(section_id), str(ids[i]),
                              str(ids[i + 1]), float(ch[i]), float(ch[i + 1]), _declared(types[i]),
                              f"mast {ids[i]} of the registered masts", refused.get(str(section_id), ""),
-                             float(std[i]), float(std[i + 1])))
+                             float(std[i]), float(std[i + 1]), float(corr[i]), str(method[i]), str(method[i + 1])))
     return out
 
 
@@ -396,6 +415,20 @@ def smallest_spacing_m(span_type: SpanType) -> float:
     """Smallest distance between consecutive supports of a span type (masts and droppers) [m]."""
     points = np.r_[0.0, span_type.dropper_positions_m, span_type.length_m]
     return float(np.min(np.diff(points)))
+
+
+def _table_at_fault(span: _Span, excess_m: float) -> str:
+    """What a length mismatch says when the mast table placed one of the span's masts: that mast,
+    and how far the table puts it from where the span's type would (the trace did not show it)."""
+    table = [(m, other) for m, how, other in ((span.left_mast_id, span.left_method, span.right_mast_id),
+                                              (span.right_mast_id, span.right_method, span.left_mast_id))
+             if how == "table"]
+    if not table:
+        return ""
+    mast, other = table[0]
+    return (f": mast {mast} is placed by the mast table alone (the trace does not show its support), "
+            f"{abs(excess_m):.2f} m {'further from' if excess_m > 0 else 'closer to'} mast {other} than the span "
+            "type's length puts it")
 
 
 def _assign_type(span: _Span, catenary: Catenary, settings: ProjectionSettings) -> tuple[SpanType | None, str]:
@@ -408,7 +441,8 @@ def _assign_type(span: _Span, catenary: Catenary, settings: ProjectionSettings) 
             return None, f"unknown span type {span.declared_type!r} ({span.where}); known: {', '.join(known)}"
         if abs(length - st.length_m) > tol:
             return st, (f"length mismatch: measured {length:.3f} m between masts {span.left_mast_id} and "
-                        f"{span.right_mast_id}, span type {st.name} is {st.length_m:g} m (tolerance ±{tol:g} m)")
+                        f"{span.right_mast_id}, span type {st.name} is {st.length_m:g} m (tolerance ±{tol:g} m)"
+                        + _table_at_fault(span, length - st.length_m))
         return st, ""
     candidates = [(abs(length - st.length_m), name) for name, st in catenary.span_types.items()
                   if abs(length - st.length_m) <= tol]
@@ -607,8 +641,9 @@ def _project_span(span: _Span, frame: _Frame, direction: int, catenary: Catenary
     if unsettled:
         reasons.append(f"robust local fit did not settle in {settings.max_iterations} reweighting passes "
                        "(the outlier set kept changing): " + ", ".join(unsettled))
+    support_error = float("nan")
     if not reasons and np.isfinite([span.left_std_m, span.right_std_m]).any():
-        error = _cut_w_error(fits, where, span)
+        error = support_error = _cut_w_error(fits, where, span)
         if error > settings.max_cut_w_error_m:
             reasons.append(f"masts placed too loosely for this span: {span.left_mast_id} to ±"
                            f"{span.left_std_m:.2f} m and {span.right_mast_id} to ±{span.right_std_m:.2f} m, where the "
@@ -642,6 +677,7 @@ def _project_span(span: _Span, frame: _Frame, direction: int, catenary: Catenary
         "min_samples_per_point": int(n_in.min()),
         "outliers_removed": int(sum(f.n_outliers for f in fits)),
         "max_gap_m": gap_max, "cut_shift_m": shift,
+        "w_support_std_m": support_error, "w_noise_std_m": _noise_w_error(fits, where),
     })
     xs, hs = frame.trace.window(a, b)
     profile = pd.DataFrame({"span_id": span.span_id, "run_id": span.run_id, "x_m": xs - a, "height_m": hs})
@@ -651,7 +687,9 @@ def _project_span(span: _Span, frame: _Frame, direction: int, catenary: Catenary
 def _cut_w_error(fits: list, where: np.ndarray, span: _Span) -> float:
     """RMS error of W over the droppers caused by the standard errors of the two masts'
     positions (the droppers move with the left mast), through the fitted slopes h' [m]:
-    ∂W_i/∂a = h'(x_i) − (1 − f_i) h'(a) − f_i s, ∂W_i/∂b = −f_i (h'(b) − s), s the chord's slope."""
+    ∂W_i/∂a = h'(x_i) − (1 − f_i) h'(a) − f_i s, ∂W_i/∂b = −f_i (h'(b) − s), s the chord's slope;
+    the two errors correlated by ``span.corr`` where the registration ties them (a height trace's
+    section fit, :mod:`catenary.registration.section_fit`)."""
     slope = np.array([f.slope for f in fits])
     heights = np.array([f.height_m for f in fits])
     length = where[-1] - where[0]
@@ -659,7 +697,17 @@ def _cut_w_error(fits: list, where: np.ndarray, span: _Span) -> float:
     chord = (heights[-1] - heights[0]) / length
     d_left = slope[1:-1] - (1.0 - f) * slope[0] - f * chord
     d_right = -f * (slope[-1] - chord)
-    variance = (np.nan_to_num(span.left_std_m) * d_left) ** 2 + (np.nan_to_num(span.right_std_m) * d_right) ** 2
+    sa, sb = np.nan_to_num(span.left_std_m), np.nan_to_num(span.right_std_m)
+    variance = (sa * d_left) ** 2 + (sb * d_right) ** 2 + 2.0 * np.nan_to_num(span.corr) * sa * sb * d_left * d_right
+    return float(np.sqrt(max(np.mean(variance), 0.0)))
+
+
+def _noise_w_error(fits: list, where: np.ndarray) -> float:
+    """RMS over the droppers of W's standard error from the local fits' own errors [m]: W_i = h_i −
+    (1 − f_i) h_a − f_i h_b with independent fits."""
+    std = np.array([f.height_std_m for f in fits])
+    f = (where[1:-1] - where[0]) / (where[-1] - where[0])
+    variance = std[1:-1] ** 2 + ((1.0 - f) * std[0]) ** 2 + (f * std[-1]) ** 2
     return float(np.sqrt(np.mean(variance)))
 
 
@@ -764,7 +812,7 @@ def spans_schema(n_droppers: int) -> pa.Schema:
 
 
 #: Columns that may be NaN: what the recording did not give, a check not made.
-_NULLABLE = ("speed_kmh", "force_n", "cut_shift_m")
+_NULLABLE = ("speed_kmh", "force_n", "cut_shift_m", "w_support_std_m")
 _TEXT_COLUMNS = ("span_id", "run_id", "section_id", "left_mast_id", "right_mast_id")
 _INT_COLUMNS = ("direction", "min_samples_per_point", "outliers_removed")
 

@@ -16,7 +16,15 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["correction_round_trip", "identification_round_trip", "match_spans", "projection_round_trip",
-           "realized_truth", "registration_round_trip", "repeatability_round_trip"]
+           "realized_truth", "registration_round_trip", "repeatability_round_trip", "span_accuracy_round_trip"]
+
+#: A used span's W is "within" when its RMS over the droppers lies within this of the truth's
+#: dynamic W of the same run [m] (issue [20]: twice the sensor's 0.47 mm as it reaches W).
+W_WITHIN_M = 1e-3
+#: P(|z| > 3) of a standard normal: the largest chance that a span's RMS W error exceeds three
+#: times its stated RMS standard error, reached when the errors of its droppers are one
+#: common error (for several independent parts the chance is smaller).
+P_BEYOND_3_SIGMA = 0.0026998
 
 #: Largest distance between a span's registered masts and the true ones for the spans to be the
 #: same [m] (a registration places masts to decimetres; spans are tens of metres).
@@ -314,3 +322,94 @@ def identification_round_trip(s_opt: pd.DataFrame, corrected: pd.DataFrame, trut
     return pd.DataFrame(rows, columns=["parameter", "statistic", "estimate", "standard_error", "realized", "z",
                                        "n_spans", "status", "profile_low", "profile_high", "inside_profile",
                                        "total_low", "total_high", "inside_total"])
+
+
+def span_accuracy_round_trip(report: pd.DataFrame, spans: pd.DataFrame, sections: pd.DataFrame,
+                             masts: pd.DataFrame, masts_truth: pd.DataFrame, truth: pd.DataFrame,
+                             truth_runs: pd.DataFrame, planted_table_std_m: float) -> pd.DataFrame:
+    """Per run, what a registration with a loose mast table makes of the spans (issue [20]).
+
+    Parameters
+    ----------
+    report : pandas.DataFrame
+        ``spans_report.csv``.
+    spans : pandas.DataFrame
+        Every span type's ``spans.parquet`` concatenated (the W columns of the longest type; a
+        shorter type's missing columns NaN).
+    sections, masts : pandas.DataFrame
+        ``registration/sections.csv`` and ``registration/masts.csv``.
+    masts_truth, truth, truth_runs : pandas.DataFrame
+        The campaign's truth per mast, per span and per span and run.
+    planted_table_std_m : float
+        Standard deviation of the table's planted errors [m] (a uniform ±a: a/√3).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run: ``n_true_spans``, ``n_eligible`` (true spans whose masts are both in the
+        table: not next to a mast missing from it), ``n_used_own_id`` (of those, used under their
+        own id and cut at their own masts), ``n_within`` (of those, W within :data:`W_WITHIN_M`
+        RMS of the truth's dynamic W) and ``fraction_within`` (over ``n_eligible``),
+        ``n_true_length_mismatch`` (true spans rejected as a length mismatch), ``n_used``,
+        ``n_beyond_3_sigma`` (used spans whose RMS W error exceeds three times their stated RMS
+        standard error √(w_support_std_m² + w_noise_std_m²)) and ``expected_beyond_3_sigma_max``
+        (at most that many by chance: :data:`P_BEYOND_3_SIGMA` per span), ``n_sections``,
+        ``n_refused``, ``planted_table_std_m``, the sections' estimated ``table_std_min_m`` /
+        ``table_std_max_m`` / ``table_std_pooled_m`` (RMS weighted by masts) and the realized
+        error's ``realized_table_std_m`` (each section's listed masts' errors about their best
+        line, what a section's map leaves of them, pooled), ``worst_table_std_ratio`` (the
+        section estimate furthest from the planted value, as a ratio) and
+        ``worst_realized_ratio`` (furthest from its own section's realized value).
+    """
+    missing = set(masts_truth.loc[masts_truth["status"] == "missing_from_table", "mast_id"].astype(str))
+    listed = masts_truth[masts_truth["status"] == "listed"]
+    by_section = {}
+    for section_id, part in listed.groupby("section_id", sort=False):
+        x = part["chainage_m"].to_numpy(dtype=float)
+        deviation = part["table_chainage_m"].to_numpy(dtype=float) - x
+        a = np.vander(x - x[0], 2)
+        left = deviation - a @ np.linalg.lstsq(a, deviation, rcond=None)[0]
+        by_section[str(section_id)] = (float(left @ left), max(len(x) - 2, 1))
+    realized = float(np.sqrt(sum(v for v, _ in by_section.values()) / sum(n for _, n in by_section.values())))
+    true_ids = truth["span_id"].astype(str)
+    ends = true_ids.str.split("-", n=1, expand=True)
+    eligible = set(true_ids[~(ends[0].isin(missing) | ends[1].isin(missing))])
+    rows = []
+    for run_id, part in report.groupby("run_id", sort=False):
+        used = spans[spans["run_id"].astype(str) == str(run_id)]
+        merged = _with_truth(used, truth, truth_runs, masts)
+        error = _w(merged) - _w(merged, "dynamic_")
+        rms = np.sqrt(np.nanmean(error ** 2, axis=1)) if len(merged) else np.zeros(0)
+        own = merged["span_id"].astype(str).to_numpy() == merged["truth_span_id"].astype(str).to_numpy()
+        good = own & np.isin(merged["span_id"].astype(str), list(eligible))
+        stated = np.sqrt(np.nan_to_num(merged["w_support_std_m"].to_numpy(dtype=float)) ** 2
+                         + merged["w_noise_std_m"].to_numpy(dtype=float) ** 2) if len(merged) else np.zeros(0)
+        mismatch = part[(part["status"] != "used") & part["reason"].fillna("").str.contains("length mismatch")
+                        & part["span_id"].astype(str).isin(set(true_ids))]
+        secs = sections[sections["run_id"].astype(str) == str(run_id)]
+        registered = secs[secs["status"] == "registered"]
+        estimate = registered["table_std_m"].to_numpy(dtype=float)
+        weights = registered["n_table_masts"].to_numpy(dtype=float)
+        ratio = estimate / planted_table_std_m if estimate.size else np.array([np.nan])
+        own = np.array([np.sqrt(by_section[str(k)][0] / by_section[str(k)][1]) if str(k) in by_section else np.nan
+                        for k in registered["section_id"]])
+        to_own = estimate / own if estimate.size else np.array([np.nan])
+        rows.append({
+            "run_id": run_id, "n_true_spans": int(len(truth)), "n_eligible": len(eligible),
+            "n_used_own_id": int(good.sum()), "n_within": int((good & (rms <= W_WITHIN_M)).sum()),
+            "fraction_within": float((good & (rms <= W_WITHIN_M)).sum() / max(len(eligible), 1)),
+            "n_true_length_mismatch": int(len(mismatch)), "n_used": int(len(used)),
+            "n_beyond_3_sigma": int((rms > 3.0 * stated).sum()),
+            "expected_beyond_3_sigma_max": float(P_BEYOND_3_SIGMA * len(merged)),
+            "n_sections": int(len(secs)), "n_refused": int((secs["status"] == "refused").sum()),
+            "planted_table_std_m": planted_table_std_m,
+            "table_std_min_m": float(np.min(estimate)) if estimate.size else float("nan"),
+            "table_std_max_m": float(np.max(estimate)) if estimate.size else float("nan"),
+            "table_std_pooled_m": float(np.sqrt(np.sum(weights * estimate ** 2) / np.sum(weights)))
+            if estimate.size else float("nan"),
+            "realized_table_std_m": realized,
+            "worst_table_std_ratio": float(ratio[np.argmax(np.abs(np.log(ratio)))]),
+            "worst_realized_ratio": float(to_own[np.nanargmax(np.abs(np.log(to_own)))])
+            if np.isfinite(to_own).any() else float("nan"),
+        })
+    return pd.DataFrame(rows)

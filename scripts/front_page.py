@@ -2,6 +2,7 @@
 
 from catenary.front_page import write_front_page
 from catenary.logs import rule_logger
+from catenary.registration import RegistrationSettings
 
 log = rule_logger("front_page", snakemake.log[0])
 inputs = dict(snakemake.input.items())
@@ -9,7 +10,8 @@ types = [key.removeprefix("s_opt_") for key in inputs if key.startswith("s_opt_"
 path = write_front_page(snakemake.output.front_page, snakemake.input.intro, snakemake.input.spans_report,
                         snakemake.input.correction_summary, {t: inputs[f"s_opt_{t}"] for t in types},
                         {t: inputs.get(f"findings_{t}") for t in types},
-                        {t: inputs.get(f"model_error_{t}") for t in types},
+                        {t: inputs.get(f"model_error_{t}") for t in types}, snakemake.input.sections,
+                        RegistrationSettings.from_mapping(snakemake.params.registration).mast_table_std_m,
                         {t: (inputs[f"spans_{t}"], inputs[f"sections_{t}"]) if f"spans_{t}" in inputs else None
                          for t in types})
 log.info("front page for %s written to %s", ", ".join(types) or "no span type", path)

@@ -20,7 +20,8 @@ lag = measuring_lag(catenary, load_pantographs(snakemake.input.pantographs), cor
 recording = read_table(snakemake.input.recording)
 masts = read_table(snakemake.input.masts)
 run_ids = list(dict.fromkeys(recording["run_id"]))
-if len(masts) == 0:
+found = len(masts) == 0
+if found:
     masts = validate_masts(masts_from_trace(run_samples(recording, run_ids[0]), catenary, settings, lag),
                            source=f"masts found along run {run_ids[0]}")
     log.info("no mast table: %d masts in %d sections found along run %s", len(masts),
@@ -29,7 +30,7 @@ masts.to_csv(snakemake.output.table, index=False, float_format="%.4f")
 runs = []
 for run_id in run_ids:
     samples = run_samples(recording, run_id)
-    run = (register_run(samples, masts, catenary, settings, lag, log=log) if settings.enabled
+    run = (register_run(samples, masts, catenary, settings, lag, log=log, table_from_trace=found) if settings.enabled
            else unregistered_run(samples, masts, catenary))
     for row in run.sections[run.sections["reason"] != ""].itertuples():
         log.warning("%s", row.reason)

@@ -63,3 +63,19 @@ def test_front_page_carries_the_total_intervals_and_the_correction_models_caveat
     assert body.count("<tr>") == 3
     # without a budget the table keeps its five columns and says nothing of a total
     assert "95 % total" not in front_page("T\n=\n", SPANS, CORRECTION, {"N2": S_OPT}, {"N2": FINDINGS})
+
+
+def test_the_front_page_says_the_tables_accuracy_each_run_measured_and_the_refusals():
+    sections = pd.DataFrame({"run_id": ["R1", "R1", "R1"], "section_id": ["S01", "S02", "S03"],
+                             "status": ["registered", "registered", "refused"],
+                             "reason": ["", "", "section S03, run R1: registration failed: the trace's height confirms "
+                                                "2 of the 21 masts"],
+                             "table_std_m": [0.152, 0.181, float("nan")], "support_std_m": [0.17, 0.17, float("nan")]})
+    page = front_page("T\n=\n", SPANS, CORRECTION, {"N2": S_OPT}, {"N2": None}, sections=sections, prior_std_m=0.2)
+    assert ("**Registration, run R1:** 2 of 3 sections registered; the mast table is accurate to 0.15–0.18 m as the "
+            "run measures it (prior ``mast_table_std_m`` 0.2 m)") in page
+    assert "refused: section S03, run R1: registration failed: the trace's height confirms 2 of the 21 masts" in page
+    publish_parts(page, writer="html", settings_overrides={"report_level": 2, "halt_level": 2})
+    off = sections.assign(status="unregistered")
+    assert "**Registration, run R1:** switched off" in front_page("T\n=\n", SPANS, CORRECTION, {"N2": S_OPT},
+                                                                   {"N2": None}, sections=off, prior_std_m=0.2)

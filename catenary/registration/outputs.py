@@ -35,7 +35,8 @@ def read_registration(masts_path: str | Path, sections_path: str | Path, directi
     """The runs' registrations as :func:`write_registration` wrote them, keyed by run id
     (``directions``: run id → direction of travel)."""
     masts = pd.read_csv(masts_path, dtype={"run_id": str, "section_id": str, "mast_id": str, "span_type": str},
-                        keep_default_na=False, na_values={c: [""] for c in MAST_COLUMNS if c.endswith("_m")})
+                        keep_default_na=False,
+                        na_values={c: [""] for c in MAST_COLUMNS if c.endswith("_m") or c == "corr_next"})
     sections = pd.read_csv(sections_path, dtype={"run_id": str, "section_id": str, "reason": str,
                                                  "coefficients": str}, keep_default_na=False,
                            na_values={c: [""] for c in SECTION_COLUMNS if c.endswith("_m") or c == "scale"})

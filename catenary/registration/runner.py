@@ -14,29 +14,49 @@ travelled):
    The masts are searched together: the line (offset and scale within ``max_scale_error``)
    along which their standardised scores add up best, so that a mast whose own best offset
    slips by a dropper spacing does not pull the map; a mast agrees with the line when its score
-   near the line is among its top 1 %. Of the two weightings, the one more masts agree with is
-   kept.
+   near the line is among its top 1 %, within ``max_residual_m`` of the line — or, for a table
+   whose own span lengths stray from their types' lengths, within 2.5 times that spread
+   (:func:`_length_spread`: a table kept to the metre is not refused for being one). Of the two
+   weightings, the one more masts agree with is kept.
+
+With the stagger, each mast is then placed on its own (``_place_one_by_one``):
+
 2. **Fine.** Around that line each mast's support is fitted within ``± search_m``
    (:mod:`.supports`), with its standard error.
 3. **Map.** The map from table to recorded chainage is fitted robustly to the supports found
-   (:mod:`.mapping`); a mast whose support lies too far from it is left to the table. Where the
-   supports agree with the recording's chainage as it is (offset and scale not significantly
-   off, the height's lag uncertain by ``height_lag_std_m`` at each end of the section), the
-   map is the identity.
+   (:mod:`.mapping`); a mast whose support lies too far from it is left to the table. The
+   table's accuracy is measured by the matched masts' residuals against the map less the fits'
+   own variances (:func:`.section_fit.table_std_from_residuals`; ``mast_table_std_m`` is its
+   prior) and the map fitted again with it. Where the supports agree with the recording's
+   chainage as it is (offset and scale not significantly off, the height's lag uncertain by
+   ``height_lag_std_m`` at each end of the section), the map is the identity.
 4. **Masts.** Each mast's registered chainage (in the table's frame) weighs the trace's
-   position against the table's by their standard errors. A mast that the trace does not
-   confirm and whose removal leaves a span of a known length is **extra in the table** and is
-   dropped; a registered span as long as two spans hides a mast **missing from the table**,
-   inserted where the trace (or else the span types' length) puts it, with the id
-   ``<left mast>+1``.
+   position against the table's by their standard errors.
+
+With the height alone, no single support shows itself well enough (0.2–0.3 m, tails to a
+metre): the section's supports are found jointly (``_place_by_height``, :mod:`.section_fit`) —
+every support's dropper pattern, every span's length and the table, with the map and the
+table's accuracy that best explain them all; a mast is confirmed (``matched``) when its own
+pattern fits within ``max_residual_m`` of where the section places it. The dynamic lag's error
+(``height_lag_std_m`` at each end) is added to the masts' standard errors and their neighbours'
+correlation (``corr_next``), unless the map is the identity.
+
+Before either, the table is made consistent with the span types' lengths: a mast whose removal
+leaves a span of a known length is **extra in the table** and is dropped; a span as long as two
+spans hides a mast **missing from the table**, inserted where the trace (or else the span types'
+length) puts it, with the id ``<left mast>+1``.
+
 5. **Refusal.** A section whose trace confirms fewer than ``min_matched_fraction`` of its masts
-   (and at least ``min_matched_masts``), or whose confirmed masts sit further from the map than
-   ``max_residual_m`` in RMS, is refused with that reason; a section the run does not cover is
-   reported as such. The projection then rejects every span of such a section for that run.
+   (and at least ``min_matched_masts``) — at the coarse line, or where the fine fits or the
+   section's fit place them — is refused with that reason: a trace that does not show the
+   supports, or a table of another line. A table's accuracy is no reason: it is measured and
+   weighed. A section the run does not cover is reported as such. The projection then rejects
+   every span of such a section for that run.
 
 Without a mast table (:func:`masts_from_trace`), the supports are found along the first run's
 trace, sections end at gaps in the recording, and the span types are read from the supports'
-spacing; every run is then registered onto that table.
+spacing; every run is then registered onto that table (a start only: the trace's own evidence,
+not an independent one, so its accuracy is not measured).
 
 One module, one concern: the map from one mast table onto one run's trace. The coarse line,
 the fine fits, the map and the placement of each mast (missing, extra, refused) are the steps of
@@ -56,6 +76,7 @@ import pandas as pd
 from ..config import Catenary
 from .chain import chain_supports, odometer_scale
 from .mapping import ChainageMap, fit_map
+from .section_fit import fit_section, height_evidence, table_std_from_residuals
 from .settings import RegistrationSettings
 from .supports import LocalFit, Trace, align_pattern, kink_signal, locate_stagger_support, trace_of
 
@@ -66,25 +87,34 @@ MATCHED, TABLE_ONLY, MISSING, EXTRA = "matched", "table_only", "missing_from_tab
 REGISTERED, REFUSED, NOT_COVERED, UNREGISTERED = "registered", "refused", "not_covered", "unregistered"
 
 MAST_COLUMNS = ["run_id", "section_id", "mast_id", "span_type", "status", "method", "table_chainage_m",
-                "recorded_chainage_m", "chainage_m", "std_m", "residual_m"]
+                "recorded_chainage_m", "chainage_m", "std_m", "residual_m", "corr_next"]
 """Columns of the registered masts: one row per run and mast of the table (and per mast the
 registration inserted). ``span_type``: of the span starting at the mast (empty at a section's last
 mast); ``status``: ``matched`` (the trace confirms it), ``table_only`` (position from the table),
 ``missing_from_table`` (inserted), ``extra_in_table`` (dropped); ``method``: what placed it
-(``stagger``, ``height``, ``table``, ``span_length``); ``table_chainage_m`` (NaN when inserted),
-``recorded_chainage_m`` (in the run's own chainage), ``chainage_m`` (registered, in the table's
-frame; NaN when dropped), ``std_m`` (its standard error), ``residual_m`` (trace position minus the
-map, in table metres; NaN unless matched)."""
+(``stagger``: the mast's own reversal; ``height``: the whole section's height, its spans and the
+table (:mod:`.section_fit`); ``table``; ``span_length``: inserted where the span types put it);
+without stagger a ``table_only`` mast is one whose own kinks do not confirm where the section's
+fit places it; ``table_chainage_m`` (NaN when inserted), ``recorded_chainage_m`` (in the run's own
+chainage), ``chainage_m`` (registered, in the table's frame; NaN when dropped), ``std_m`` (its
+standard error), ``residual_m`` (the trace's position minus the map, in table metres; NaN unless
+matched), ``corr_next`` (correlation of its position's error with the next mast's of the section:
+the height's fit ties neighbours through their span; NaN where independent)."""
 
 SECTION_COLUMNS = ["run_id", "section_id", "status", "reason", "n_table_masts", "n_matched",
                    "n_missing_from_table", "n_extra_in_table", "offset_m", "scale", "degree", "residual_rms_m",
-                   "recorded_low_m", "recorded_high_m", "reference_m", "coefficients"]
+                   "recorded_low_m", "recorded_high_m", "reference_m", "coefficients", "table_std_m",
+                   "span_length_std_m", "support_std_m"]
 """Columns of the registered sections: one row per run and section. ``status``: ``registered``,
 ``refused`` (``reason`` says why), ``not_covered`` (the run has no samples there),
 ``unregistered`` (registration switched off); ``offset_m`` and ``scale`` of the map at the
 section's middle, its ``degree``, the RMS of the matched masts' residuals, the recorded chainages
 the section spans, and the map's polynomial (``coefficients``, space-separated, in powers of
-the table chainage minus ``reference_m``)."""
+the table chainage minus ``reference_m``); ``table_std_m``, the table's accuracy measured by the
+run (standard deviation of a listed chainage's error, in table metres; ``mast_table_std_m`` is
+its prior), ``span_length_std_m`` (without stagger: the spans' lengths' standard deviation about
+their types' lengths, in table metres; NaN with the stagger) and ``support_std_m`` (RMS of the
+masts' standard errors)."""
 
 #: Step of the coarse search of each mast [m].
 _COARSE_STEP_M = 0.05
@@ -101,6 +131,26 @@ _SAG_WEIGHTS = (0.1, 1.0)
 #: (11 needed); 9 of 17 on the hand-made example's sag-only trace, 7 of 18 for another line's
 #: table and 2 of 17 on a flat trace (9 needed). At 0.995 the same cases give 13, 17, 8, 5 and 1.
 _AGREE_QUANTILE = 0.99
+#: A mast agrees with a section's coarse line within this many times the table's own spread
+#: (:func:`_length_spread`) when that is wider than ``max_residual_m`` (at most ``search_m``), and
+#: a span's length matches its type within this many of its spread when wider than
+#: ``length_tolerance_m``: a uniform error of ±a has a spread a/√3, and 2.5 spreads (1.44 a)
+#: hold all of it; 98.8 % of a Gaussian's.
+_SPREAD_TOLERANCE = 2.5
+#: Weight of a mast table found from the height trace itself (:func:`masts_from_trace`) in the
+#: section's fit [m]: the chain of spans places each support to within a metre (0.50 / 0.73 m
+#: at worst, 0.28 / 0.36 m RMS on r_height_no_table's two sections), from the same trace.
+_FOUND_TABLE_STD_M = 0.5
+#: A section's height fit is done again on a grid centred where it put the supports when one of
+#: them lies within this of its grid's edge [m], at most this many times in all: measured on the
+#: default line with ±1 m tables, the coarse line put a section's grid 1–2 m off the true supports
+#: (the fit then 0.65 m off at worst, its own fits at the edge: 10 of 21 confirmed); centred
+#: again, 0.3 m.
+_RECENTRE_MARGIN_M, _RECENTRE_PASSES = 0.5, 3
+#: Half-width of the slopes a loose table's coarse line may take about the odometer scale of its
+#: section's chain of spans (:func:`_chain_slopes`): measured 0.01–0.03 % off the truth on
+#: r_table's two sections (1.2 km each); 0.05 % moves a section's far end by 0.6 m.
+_CHAIN_SCALE_TOLERANCE = 5e-4
 #: Margin of recorded samples kept around a registered section [m].
 MARGIN_M = 5.0
 
@@ -137,6 +187,7 @@ class _TableSection:
     table_std_m: np.ndarray       # standard error of table_m
     missing: np.ndarray           # inserted: missing from the table
     extra: list = field(default_factory=list)     # (mast_id, table chainage) of masts dropped as extra
+    spread_m: float = 0.0         # the table's own spread of a mast's chainage (_length_spread / √2)
 
 
 def _span_types_of(masts: pd.DataFrame, catenary: Catenary) -> list:
@@ -155,6 +206,25 @@ def _span_types_of(masts: pd.DataFrame, catenary: Catenary) -> list:
     return types
 
 
+def _chain_slopes(kinks: tuple, predicted: np.ndarray, reach_m: float, sec: _TableSection, catenary: Catenary,
+                  type_lag: dict, scale: float, settings: RegistrationSettings) -> tuple[float, float]:
+    """Slopes the coarse line of a loose table's section may take, from the odometer scale that
+    the section's own chain of spans gives (:func:`.chain.chain_supports`, the table's span types
+    at their lengths): within :data:`_CHAIN_SCALE_TOLERANCE` of it. A table kept to the metre
+    puts its masts' comb scores where its errors put them; their best line can then take another
+    scale (measured on r_table's trace with a ±1 m table: 0.08 % for 0.3 %, the far masts 3 m
+    off), which the span lengths, read over the whole section, do not allow."""
+    grid, comb, sag = kinks
+    names = sorted({k for k in sec.span_type if k is not None}, key=lambda n: catenary.span_types[n].length_m)
+    supports, kinds = chain_supports(grid, comb, sag, float(predicted.min()) - reach_m, float(predicted.max()) + reach_m,
+                                     catenary, names, type_lag, settings.max_scale_error)
+    if len(supports) < 3:
+        return -settings.max_scale_error, settings.max_scale_error
+    centre = odometer_scale([(supports, kinds)], catenary) - scale
+    return (max(centre - _CHAIN_SCALE_TOLERANCE, -settings.max_scale_error),
+            min(centre + _CHAIN_SCALE_TOLERANCE, settings.max_scale_error))
+
+
 def _table_sections(masts: pd.DataFrame, catenary: Catenary, settings: RegistrationSettings) -> list[_TableSection]:
     """The table's sections, made consistent with the span types' lengths (module docs, step 4):
     a mast whose two spans match no span type while the two together match one, or two, is extra
@@ -162,13 +232,14 @@ def _table_sections(masts: pd.DataFrame, catenary: Catenary, settings: Registrat
     missing between them, where the span types put it."""
     types = _span_types_of(masts, catenary)
     lengths = np.array([st.length_m for st in catenary.span_types.values()])
-    tol = settings.length_tolerance_m
     out = []
     for section_id, rows in masts.groupby("section_id", sort=False):
         idx = rows.index.to_numpy()
         ids = rows["mast_id"].astype(str).tolist()
         x = rows["chainage_m"].to_numpy(dtype=float).tolist()
         kinds = [types[i] for i in idx]
+        spread = _length_spread(np.asarray(x), kinds, catenary, settings.length_tolerance_m)
+        tol = max(settings.length_tolerance_m, _SPREAD_TOLERANCE * spread)
         std = [settings.mast_table_std_m] * len(ids)
         missing = [False] * len(ids)
         extra = []
@@ -206,8 +277,24 @@ def _table_sections(masts: pd.DataFrame, catenary: Catenary, settings: Registrat
                         seq.insert(j + 1, value)
                     changed = True
                     break
-        out.append(_TableSection(str(section_id), ids, np.array(x), kinds, np.array(std), np.array(missing), extra))
+        out.append(_TableSection(str(section_id), ids, np.array(x), kinds, np.array(std), np.array(missing), extra,
+                                 spread / np.sqrt(2.0)))
     return out
+
+
+def _length_spread(x: np.ndarray, kinds: list, catenary: Catenary, tolerance_m: float) -> float:
+    """Robust standard deviation of a table's span lengths about their types' lengths [m]: 1.4826
+    × the median of ``|Δt − L|`` over the spans within four ``length_tolerance_m`` of their type
+    (a span beside a missing or an extra mast is off by metres, not by the table's positioning).
+    Each span's error is the difference of two masts' errors: a mast's spread is this / √2 — the
+    table's accuracy if its spans have their types' lengths, more if they do not. A table kept to
+    the metre gets a length tolerance of 2.5 spreads (2 m for ±1 m) instead of failing to find its
+    extra and missing masts (an extra mast midway between two others listed ±1 m off leaves two
+    half-spans that add up to a span only within ±2 m)."""
+    d = np.array([x[k + 1] - x[k] - catenary.span_type(kinds[k]).length_m for k in range(x.size - 1)
+                  if kinds[k] is not None])
+    d = d[np.abs(d) <= 4.0 * tolerance_m]
+    return float(1.4826 * np.median(np.abs(d))) if d.size >= 3 else 0.0
 
 
 def _middle_gap(positions_m: np.ndarray, length_m: float) -> float:
@@ -257,12 +344,12 @@ def _local_fit(trace: Trace, where_m: float, offsets_m: np.ndarray, left_m: floa
 
 
 def _coarse_line(t: np.ndarray, predicted: np.ndarray, scores: np.ndarray, offsets: np.ndarray,
-                 max_scale_error: float, tolerance_m: float) -> tuple[np.ndarray, np.ndarray, float] | None:
+                 slopes: tuple[float, float], tolerance_m: float) -> tuple[np.ndarray, np.ndarray, float] | None:
     """(offset, scale) line along which the masts' scores add up best, and the masts that agree.
 
     ``scores[j, k]`` is mast j's score at offset ``offsets[k]`` from ``predicted[j]``. Each mast's
     scores are standardised over its offsets (a faint and a strong signature count alike); every
-    line of slope within ``± max_scale_error`` (steps that move the section's far end by one grid
+    line of slope within ``slopes`` (low, high; steps that move the section's far end by one grid
     step) and offset on the grid is scored by the mean over the masts of their standardised
     score on it (a mast the line takes out of its search counts 0, its average). A mast
     **agrees** with the best line when its best score within ``± tolerance_m`` of the line is
@@ -285,7 +372,7 @@ def _coarse_line(t: np.ndarray, predicted: np.ndarray, scores: np.ndarray, offse
     step = float(offsets[1] - offsets[0])
     centre = float(np.mean(t))
     reach = max(float(t.max() - t.min()), step)
-    slopes = np.arange(-max_scale_error, max_scale_error + 0.5 * step / reach, step / reach)
+    slopes = np.arange(slopes[0], slopes[1] + 0.5 * step / reach, step / reach)
     filled = np.nan_to_num(z, nan=0.0)
     best = (-np.inf, 0.0, 0.0)
     for slope in slopes:
@@ -347,7 +434,8 @@ def support_kinks(trace: Trace) -> tuple[np.ndarray, np.ndarray, np.ndarray | No
 
 def support_line(trace: Trace, kinks: tuple[np.ndarray, np.ndarray], table_m: np.ndarray, span_types: list,
                  predicted_m: np.ndarray, catenary: Catenary, *, scale: float, lag_m: float, reach_m: float,
-                 max_scale_error: float, tolerance_m: float) -> tuple[np.ndarray, np.ndarray] | None:
+                 max_scale_error: float, tolerance_m: float,
+                 slopes: tuple[float, float] | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """Where a section's supports are, from the coarse search (module docs, step 1).
 
     Parameters
@@ -363,6 +451,8 @@ def support_line(trace: Trace, kinks: tuple[np.ndarray, np.ndarray], table_m: np
         Trace metres per table metre; the height's lag [m].
     reach_m, max_scale_error, tolerance_m : float
         Offsets tried [m]; largest scale error; how close to the line a mast must be to agree [m].
+    slopes : (float, float), optional
+        The line's slopes tried relative to ``predicted_m`` (default ``± max_scale_error``).
 
     Returns
     -------
@@ -385,7 +475,8 @@ def support_line(trace: Trace, kinks: tuple[np.ndarray, np.ndarray], table_m: np
         weighted = [comb + w * broad for w in _SAG_WEIGHTS]
     line, scores = None, weighted[0]
     for candidate in weighted:
-        found = _coarse_line(table_m, predicted_m, candidate, offsets, max_scale_error, tolerance_m)
+        found = _coarse_line(table_m, predicted_m, candidate, offsets,
+                             slopes if slopes is not None else (-max_scale_error, max_scale_error), tolerance_m)
         if found is not None and (line is None or (found[1].sum(), found[2]) > (line[1].sum(), line[2])):
             line, scores = found, candidate
     if line is None:
@@ -399,8 +490,141 @@ def _matches(length: float, lengths: np.ndarray, tolerance: float) -> bool:
     return bool(np.any(np.abs(lengths - length) <= tolerance))
 
 
+@dataclass
+class _Placement:
+    """Where one section's masts are placed on a run, or why they cannot be (``why``)."""
+
+    rows: list = field(default_factory=list)
+    fitted: ChainageMap | None = None
+    n_matched: int = 0
+    identity: bool = False
+    residual_rms_m: float = float("nan")
+    table_std_m: float = float("nan")
+    length_std_m: float = float("nan")
+    why: str = ""
+
+
+def _place_one_by_one(trace: Trace, sec: _TableSection, guess: np.ndarray, scale: float, type_lag: dict,
+                      lag_m: float, settings: RegistrationSettings, catenary: Catenary, run_id: str,
+                      table_from_trace: bool) -> _Placement:
+    """Each mast's support fitted on its own (the stagger's reversal; the height's pattern where the
+    stagger is not recorded), the map fitted robustly to them, each mast placed by the trace and
+    the table weighed by their errors (module docs, steps 2–4). The table's accuracy is measured by
+    the matched masts' residuals against the map less the fits' own variances
+    (:func:`.section_fit.table_std_from_residuals`, the reversals' alone where at least 3), and
+    the map fitted again with it; reported NaN for a table found from the same trace."""
+    t = sec.table_m
+    fits, methods = [], []
+    for j in range(t.size):
+        pattern, left, right = _pattern(t, sec.span_type, j, catenary)
+        lag_j = type_lag.get(sec.span_type[j] or sec.span_type[j - 1], lag_m)
+        fit, how = _local_fit(trace, float(guess[j]), pattern, left, right, scale, lag_j, settings.search_m)
+        fits.append(fit)
+        methods.append(how)
+    methods = np.array(methods)
+    found = np.array([f.found and np.isfinite(f.std_m) for f in fits])
+    position = np.array([f.position_m if ok else np.nan for f, ok in zip(fits, found)])
+    std = np.array([f.std_m if ok else np.nan for f, ok in zip(fits, found)])
+    table_std, accuracy = sec.table_std_m, settings.mast_table_std_m
+    for _ in range(2):
+        try:
+            fitted, inlier = fit_map(t, position, std, degree=settings.drift_degree, reference_m=float(t[0]),
+                                     table_std_m=table_std, bound_m=settings.max_residual_m)
+        except ValueError:
+            return _Placement(why=f"the trace confirms {int(found.sum())} of the {t.size} masts")
+        listed = inlier & ~sec.missing
+        slope = fitted.slope(t)
+        residual = np.full(t.size, np.nan)
+        residual[listed] = (position[listed] - fitted.to_recorded(t[listed])) / slope[listed]
+        by = listed & (methods == "stagger")
+        by = by if by.sum() >= 3 else listed
+        accuracy = table_std_from_residuals(residual[by], std[by] / slope[by], fitted.degree + 1,
+                                            settings.mast_table_std_m)
+        table_std = np.where(sec.missing, sec.table_std_m, accuracy)
+    n_matched = int(listed.sum())
+    rms = float(np.sqrt(np.nanmean(residual ** 2))) if n_matched else float("nan")
+    identity = _agrees_with_identity(t, position, listed, methods, settings)
+    if identity:
+        fitted = ChainageMap.identity(float(t[0]))
+        residual[listed] = position[listed] - t[listed]
+    sec = _TableSection(sec.section_id, sec.mast_id, t, sec.span_type, table_std, sec.missing, sec.extra)
+    rows = _place_masts(sec, fitted, inlier, position, std, residual, run_id, methods)
+    return _Placement(rows, fitted, n_matched, identity, rms, float("nan") if table_from_trace else accuracy)
+
+
+def _place_by_height(trace: Trace, sec: _TableSection, guess: np.ndarray, scale: float, type_lag: dict,
+                     settings: RegistrationSettings, catenary: Catenary, run_id: str,
+                     table_from_trace: bool) -> _Placement:
+    """The section's supports found jointly from the height, its spans and the table
+    (:mod:`.section_fit`), the table's accuracy measured on the way. A mast is confirmed
+    (``matched``) when its own pattern's best fit lies within ``max_residual_m`` of where the
+    whole section places it. Where the supports' own fits agree with the recording's chainage as
+    it is, the map is the identity and each mast sits where the table puts it plus its residual
+    about the fitted map: the fitted offset and scale are then the height's lag error, which must
+    not move the masts (on the hand-made example's sag-only trace, fitting with the identity map
+    held put its last mast 1 m off its exact table). A table found from the same
+    trace (``table_from_trace``) is no independent evidence: it only starts the fit, weighted as
+    :data:`_FOUND_TABLE_STD_M`, and its accuracy is not measured (NaN)."""
+    t = sec.table_m
+    listed = ~sec.missing
+    lengths = np.array([catenary.span_type(name).length_m for name in sec.span_type[:-1]])
+    if listed.sum() < 2:
+        return _Placement(why=f"the table lists {int(listed.sum())} of the section's masts")
+    line = np.linalg.lstsq(np.vander(t[listed] - t[0], 2, increasing=True), guess[listed], rcond=None)[0]
+    options = {"initial": ChainageMap(line, float(t[0])), "degree": settings.drift_degree,
+               "prior_std_m": settings.mast_table_std_m,
+               "fixed_table_std_m": _FOUND_TABLE_STD_M if table_from_trace else None}
+    for _ in range(_RECENTRE_PASSES):
+        evidence = height_evidence(trace, guess, sec.span_type, catenary, scale, type_lag, settings.search_m)
+        own = evidence.own_m
+        seen = listed & np.isfinite(own)
+        fit = fit_section(evidence, t, listed, lengths, **options)
+        # a support the fit puts near its grid's edge may lie beyond it (a loose table's coarse
+        # line off by a metre): the grid is centred again on where the section's fit puts them
+        if np.all(np.abs(fit.position_m - guess) <= settings.search_m - _RECENTRE_MARGIN_M):
+            break
+        guess = fit.position_m
+        options["initial"] = fit.chainage_map
+    fitted = fit.chainage_map
+    confirmed = seen & (np.abs(own - fit.position_m) <= settings.max_residual_m)
+    slope = fitted.slope(t)
+    offset = (fit.position_m - fitted.to_recorded(t)) / slope          # about the map, in table metres
+    std, corr = fit.std_m, fit.corr_next
+    # the supports' own fits agree with the recording's chainage as it is: the map is the identity
+    identity = _agrees_with_identity(t, own, seen, np.full(t.size, "height"), settings)
+    if identity:
+        fitted, slope = ChainageMap.identity(float(t[0])), np.ones(t.size)
+        std = std / fit.chainage_map.slope(t)
+        chain = recorded = t + offset
+    else:
+        chain, recorded = fitted.to_table(fit.position_m), fit.position_m
+        # A map fitted to the height carries the dynamic lag's error, height_lag_std_m at each end
+        # of the section independently (_agrees_with_identity): it moves the section's supports
+        # together, so it adds to each position's variance and to neighbours' covariance.
+        f = (t - t[0]) / max(float(t[-1] - t[0]), 1.0)
+        lag2 = settings.height_lag_std_m ** 2
+        variance = std ** 2 + lag2 * ((1.0 - f) ** 2 + f ** 2)
+        covariance = corr[:-1] * std[:-1] * std[1:] + lag2 * ((1.0 - f[:-1]) * (1.0 - f[1:]) + f[:-1] * f[1:])
+        std = np.sqrt(variance)
+        corr = np.r_[covariance / (std[:-1] * std[1:]), np.nan]
+    residual = np.where(confirmed, offset, np.nan)
+    n_matched = int(confirmed.sum())
+    rms = float(np.sqrt(np.nanmean(residual ** 2))) if n_matched else float("nan")
+    rows = []
+    for j in range(t.size):
+        status = MISSING if sec.missing[j] else (MATCHED if confirmed[j] else TABLE_ONLY)
+        rows.append({"run_id": run_id, "section_id": sec.section_id, "mast_id": sec.mast_id[j],
+                     "span_type": sec.span_type[j] or "", "status": status, "method": "height",
+                     "table_chainage_m": float("nan") if sec.missing[j] else float(t[j]),
+                     "recorded_chainage_m": float(recorded[j]), "chainage_m": float(chain[j]),
+                     "std_m": float(std[j] / slope[j]), "residual_m": float(residual[j]),
+                     "corr_next": float(corr[j])})
+    return _Placement(rows + _extra_rows(run_id, sec), fitted, n_matched, identity, rms,
+                      float("nan") if table_from_trace else fit.table_std_m, fit.length_std_m)
+
+
 def register_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary, settings: RegistrationSettings,
-                 lag: Callable[[str, float], float], log=None) -> RunRegistration:
+                 lag: Callable[[str, float], float], log=None, table_from_trace: bool = False) -> RunRegistration:
     """Register the mast table onto one run (module docs).
 
     Parameters
@@ -416,6 +640,9 @@ def register_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
         ``lag(span_type, speed_kmh)``: lag of the height's dropper kinks for a run towards
         increasing chainage [m] (:func:`catenary.registration.lag.height_lag_m`).
     log : logging.Logger, optional
+    table_from_trace : bool
+        ``masts`` were found from a run's trace (:func:`masts_from_trace`): no independent
+        evidence on the supports, and no table whose accuracy to measure.
 
     Returns
     -------
@@ -454,9 +681,13 @@ def register_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
                     for name in {x for x in sec.span_type if x is not None}}
         lag_m = float(np.mean(list(type_lag.values()))) if type_lag else 0.0
         reach = settings.max_offset_m if first else min(settings.max_offset_m, max(3.0, 2 * settings.search_m))
+        tolerance = max(settings.max_residual_m, 0.2, min(_SPREAD_TOLERANCE * sec.spread_m, settings.search_m))
+        slopes = None
+        if method == "height" and tolerance > settings.max_residual_m:
+            slopes = _chain_slopes(kinks, predicted, reach, sec, catenary, type_lag, scale, settings)
         coarse = support_line(trace, kinks, t, sec.span_type, predicted, catenary, scale=scale, lag_m=lag_m,
-                              reach_m=reach, max_scale_error=settings.max_scale_error,
-                              tolerance_m=max(settings.max_residual_m, 0.2))
+                              reach_m=reach, max_scale_error=settings.max_scale_error, tolerance_m=tolerance,
+                              slopes=slopes)
         required = max(settings.min_matched_masts, int(np.ceil(settings.min_matched_fraction * t.size)))
         if coarse is None or coarse[1].sum() < required:
             agree = 0 if coarse is None else int(coarse[1].sum())
@@ -469,61 +700,48 @@ def register_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
             mast_rows += _unplaced(run_id, sec, TABLE_ONLY, "table")
             continue
         guess = coarse[0]
-        fits, methods = [], []
-        for j in range(t.size):
-            pattern, left, right = _pattern(t, sec.span_type, j, catenary)
-            lag_j = type_lag.get(sec.span_type[j] or sec.span_type[j - 1], lag_m)
-            fit, how = _local_fit(trace, float(guess[j]), pattern, left, right, scale, lag_j, settings.search_m)
-            fits.append(fit)
-            methods.append(how)
-        found = np.array([f.found and np.isfinite(f.std_m) for f in fits])
-        position = np.array([f.position_m if ok else np.nan for f, ok in zip(fits, found)])
-        std = np.array([f.std_m if ok else np.nan for f, ok in zip(fits, found)])
-        try:
-            fitted, inlier = fit_map(t, position, std, degree=settings.drift_degree, reference_m=float(t[0]),
-                                     table_std_m=sec.table_std_m, bound_m=settings.max_residual_m)
-        except ValueError:
-            fitted, inlier = None, np.zeros(t.size, dtype=bool)
-        n_matched = int((inlier & ~sec.missing).sum())
-        residual = np.full(t.size, np.nan)
-        if fitted is not None:
-            listed = inlier & ~sec.missing
-            residual[listed] = (position[listed] - fitted.to_recorded(t[listed])) / fitted.slope(t[listed])
-        rms = float(np.sqrt(np.nanmean(residual ** 2))) if n_matched else float("nan")
-        if fitted is None or n_matched < required or rms > settings.max_residual_m:
-            why = (f"the trace confirms {n_matched} of {t.size} masts (need {required})" if n_matched < required or
-                   fitted is None else f"the confirmed masts lie {rms:.2f} m (RMS) from the fitted map, beyond "
-                   f"max_residual_m {settings.max_residual_m:g} m")
+        placed = (_place_by_height(trace, sec, guess, scale, type_lag, settings, catenary, run_id, table_from_trace)
+                  if method == "height"
+                  else _place_one_by_one(trace, sec, guess, scale, type_lag, lag_m, settings, catenary, run_id,
+                                         table_from_trace))
+        n_matched = placed.n_matched
+        if placed.why or n_matched < required:
+            why = placed.why or (f"the trace's {method} confirms {n_matched} of the {t.size} masts "
+                                 f"(need {required}: min_matched_fraction {settings.min_matched_fraction:g}, "
+                                 f"min_matched_masts {settings.min_matched_masts}) where "
+                                 + ("the whole section's fit places them (within max_residual_m "
+                                    f"{settings.max_residual_m:g} m); a trace whose droppers' kinks the height "
+                                    "does not show" if method == "height" else "the map puts them"))
             section_rows.append({**base, "status": REFUSED, "n_matched": n_matched, "reason": (
                 f"section {sec.section_id}, run {run_id}: registration failed: {why}")})
             mast_rows += _unplaced(run_id, sec, TABLE_ONLY, "table")
             continue
-        identity = _agrees_with_identity(t, position, inlier & ~sec.missing, np.array(methods), settings)
-        if identity:
-            fitted = ChainageMap.identity(float(t[0]))
-            listed = inlier & ~sec.missing
-            residual[listed] = position[listed] - t[listed]
-        rows = _place_masts(sec, fitted, inlier, position, std, residual, run_id, np.array(methods))
+        rows, fitted, identity, rms = placed.rows, placed.fitted, placed.identity, placed.residual_rms_m
         n_missing, n_extra = int(sec.missing.sum()), len(sec.extra)
         mast_rows += rows
         maps[sec.section_id] = fitted
         middle = float(np.mean(t))
-        placed = [r["recorded_chainage_m"] for r in rows if np.isfinite(r["recorded_chainage_m"])]
+        recorded = [r["recorded_chainage_m"] for r in rows if np.isfinite(r["recorded_chainage_m"])]
         section_rows.append({**base, "status": REGISTERED, "n_matched": n_matched,
                              "reason": "" if not identity else (
                                  "the trace agrees with the table's chainage within what it can tell: identity map"),
                              "n_missing_from_table": n_missing, "n_extra_in_table": n_extra,
                              "offset_m": float(fitted.to_recorded(middle) - middle),
                              "scale": float(fitted.slope(middle)), "degree": fitted.degree, "residual_rms_m": rms,
-                             "recorded_low_m": float(min(placed)), "recorded_high_m": float(max(placed)),
+                             "recorded_low_m": float(min(recorded)), "recorded_high_m": float(max(recorded)),
                              "reference_m": fitted.reference_m,
-                             "coefficients": " ".join(f"{c:.12g}" for c in fitted.coefficients)})
+                             "coefficients": " ".join(f"{c:.12g}" for c in fitted.coefficients),
+                             "table_std_m": placed.table_std_m, "span_length_std_m": placed.length_std_m,
+                             "support_std_m": float(np.sqrt(np.nanmean(np.square(
+                                 [r["std_m"] for r in rows if r["status"] != EXTRA]))))})
         current = fitted
         first = False
         if log is not None:
             log.info("run %s, section %s: %d of %d masts confirmed by the %s, offset %+.3f m, scale %.5f, "
-                     "residual RMS %.3f m, %d missing from the table, %d extra", run_id, sec.section_id, n_matched,
-                     t.size, method, section_rows[-1]["offset_m"], section_rows[-1]["scale"], rms, n_missing, n_extra)
+                     "residual RMS %.3f m, the table accurate to %.3f m (mast_table_std_m %g m: the prior), masts "
+                     "placed to %.3f m (RMS), %d missing from the table, %d extra", run_id, sec.section_id, n_matched,
+                     t.size, method, section_rows[-1]["offset_m"], section_rows[-1]["scale"], rms, placed.table_std_m,
+                     settings.mast_table_std_m, section_rows[-1]["support_std_m"], n_missing, n_extra)
     masts_out = pd.DataFrame(mast_rows, columns=MAST_COLUMNS)
     sections_out = pd.DataFrame(section_rows, columns=SECTION_COLUMNS)
     for name in ("n_missing_from_table", "n_extra_in_table", "degree", "n_matched"):
@@ -581,7 +799,7 @@ def _unplaced(run_id: str, sec: _TableSection, status: str, method: str) -> list
     rows = [{"run_id": run_id, "section_id": sec.section_id, "mast_id": m, "span_type": st or "",
              "status": MISSING if miss else status, "method": "span_length" if miss else method,
              "table_chainage_m": float("nan") if miss else float(x), "recorded_chainage_m": float("nan"),
-             "chainage_m": float(x), "std_m": float("nan"), "residual_m": float("nan")}
+             "chainage_m": float(x), "std_m": float("nan"), "residual_m": float("nan"), "corr_next": float("nan")}
             for m, x, st, miss in zip(sec.mast_id, sec.table_m, sec.span_type, sec.missing)]
     return rows + _extra_rows(run_id, sec)
 
@@ -589,7 +807,8 @@ def _unplaced(run_id: str, sec: _TableSection, status: str, method: str) -> list
 def _extra_rows(run_id: str, sec: _TableSection) -> list[dict]:
     return [{"run_id": run_id, "section_id": sec.section_id, "mast_id": m, "span_type": "", "status": EXTRA,
              "method": "span_length", "table_chainage_m": float(x), "recorded_chainage_m": float("nan"),
-             "chainage_m": float("nan"), "std_m": float("nan"), "residual_m": float("nan")} for m, x in sec.extra]
+             "chainage_m": float("nan"), "std_m": float("nan"), "residual_m": float("nan"), "corr_next": float("nan")}
+            for m, x in sec.extra]
 
 
 def _place_masts(sec: _TableSection, fitted: ChainageMap, inlier: np.ndarray, position: np.ndarray, std: np.ndarray,
@@ -630,7 +849,7 @@ def _place_masts(sec: _TableSection, fitted: ChainageMap, inlier: np.ndarray, po
                      "method": methods[j] if inlier[j] else ("span_length" if sec.missing[j] else "table"),
                      "table_chainage_m": float("nan") if sec.missing[j] else float(t[j]),
                      "recorded_chainage_m": float(fitted.to_recorded(chain[j])), "chainage_m": float(chain[j]),
-                     "std_m": float(chain_std[j]), "residual_m": float(residual[j])})
+                     "std_m": float(chain_std[j]), "residual_m": float(residual[j]), "corr_next": float("nan")})
     return rows + _extra_rows(run_id, sec)
 
 
@@ -664,14 +883,16 @@ def unregistered_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Caten
             rows.append({"run_id": run_id, "section_id": str(section_id), "mast_id": mast,
                          "span_type": declared if isinstance(declared, str) else "", "status": TABLE_ONLY,
                          "method": "table", "table_chainage_m": float(x_m), "recorded_chainage_m": float(x_m),
-                         "chainage_m": float(x_m), "std_m": float("nan"), "residual_m": float("nan")})
+                         "chainage_m": float(x_m), "std_m": float("nan"), "residual_m": float("nan"),
+                         "corr_next": float("nan")})
         maps[str(section_id)] = ChainageMap.identity(float(x[0]))
         section_rows.append({"run_id": run_id, "section_id": str(section_id), "status": UNREGISTERED, "reason": "",
                              "n_table_masts": x.size, "n_matched": 0, "n_missing_from_table": 0,
                              "n_extra_in_table": 0, "offset_m": 0.0, "scale": 1.0, "degree": 1,
                              "residual_rms_m": float("nan"), "recorded_low_m": float(x[0]),
                              "recorded_high_m": float(x[-1]), "reference_m": float(x[0]),
-                             "coefficients": f"{x[0]:.12g} 1"})
+                             "coefficients": f"{x[0]:.12g} 1", "table_std_m": float("nan"),
+                             "span_length_std_m": float("nan"), "support_std_m": float("nan")})
     return RunRegistration(run_id, direction, pd.DataFrame(rows, columns=MAST_COLUMNS),
                            pd.DataFrame(section_rows, columns=SECTION_COLUMNS), maps)
 

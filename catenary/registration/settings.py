@@ -35,11 +35,16 @@ class RegistrationSettings:
     search_m : float
         Each mast's support is looked for within ± this of where the coarse map puts it [m].
     mast_table_std_m : float
-        Standard error of a chainage in the mast table [m]; weighs the table against the trace
-        in each mast's registered position.
+        Prior of the mast table's accuracy, the standard error of a chainage in it [m]. Each run
+        measures the accuracy per section from where the trace places the masts against the map,
+        less the trace's own error (:mod:`catenary.registration.section_fit`); this value counts
+        as two masts' worth of that evidence. The measured accuracy weighs the table against
+        the trace in each mast's registered position.
     max_residual_m : float
         A mast whose trace position lies within this of the fitted map is never an outlier [m];
-        a section whose confirmed masts' residuals have an RMS beyond it is refused.
+        a mast whose own fit lies within this of where the section's fit places it is confirmed
+        by the trace (height alone), and a mast agrees with the coarse line within this (or
+        within the table's own spread of span lengths, if wider).
     min_matched_fraction : float
         A section whose trace confirms fewer than this fraction of its table masts is refused.
     min_matched_masts : int

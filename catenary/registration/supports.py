@@ -49,7 +49,7 @@ import warnings
 
 import numpy as np
 
-__all__ = ["LocalFit", "Trace", "align_pattern", "despike", "locate_stagger_support", "trace_of"]
+__all__ = ["LocalFit", "Trace", "align_pattern", "despike", "locate_stagger_support", "pattern_misfit", "trace_of", "valley_fit"]
 
 #: Half-width of the running median that finds spikes [samples].
 _DESPIKE_HALF = 10
@@ -182,7 +182,7 @@ def _refine(trials: np.ndarray, rss: np.ndarray, dof: int, guess: float, step: f
     return LocalFit(float(best), std, (at_guess - float(rss[k])) / sigma2, n, edge)
 
 
-def _valley(trials: np.ndarray, rss: np.ndarray, dof: int, guess: float, step: float, n: int) -> LocalFit:
+def valley_fit(trials: np.ndarray, rss: np.ndarray, dof: int, guess: float, step: float, n: int) -> LocalFit:
     """Best trial's valley fitted by a least-squares parabola over ``±VALLEY_M`` (module docs): its
     vertex and ``√(2 σ² / RSS'')``; the three-point refinement (:func:`_refine`) where the valley
     is not a parabola opening upwards with its vertex inside it."""
@@ -285,14 +285,40 @@ def align_pattern(trace: Trace, pattern_m: np.ndarray, low_m: float, high_m: flo
     LocalFit
         ``position_m`` is the best **shift** of the pattern [m] (0: where it was assumed).
     """
-    x, h = trace.window(low_m, high_m, "height")
     shifts = np.arange(-search_m, search_m + 0.5 * step_m, step_m)
-    rss = np.full(shifts.size, np.nan)
+    rss, dof = pattern_misfit(trace, pattern_m + lag_m, low_m, high_m, shifts)
+    return valley_fit(shifts, rss, dof, 0.0, step_m, dof)
+
+
+def pattern_misfit(trace: Trace, kinks_m: np.ndarray, low_m: float, high_m: float,
+                   shifts_m: np.ndarray) -> tuple[np.ndarray, int]:
+    """Misfit of the height trace by a pattern of kinks at each of its shifts.
+
+    Parameters
+    ----------
+    trace : Trace
+    kinks_m : numpy.ndarray
+        Where the trace shows the kinks (masts and droppers, the dynamic pass's lag included) at
+        shift 0 (recording frame) [m].
+    low_m, high_m : float
+        The part of the trace fitted, the same for every shift [m].
+    shifts_m : numpy.ndarray
+        Shifts of the whole pattern tried [m].
+
+    Returns
+    -------
+    numpy.ndarray, int
+        Residual sum of squares of the continuous piecewise quadratic with free slope and
+        curvature jumps at the shifted kinks [m²] (NaN where the window holds too few samples),
+        and its largest number of degrees of freedom.
+    """
+    x, h = trace.window(low_m, high_m, "height")
+    rss = np.full(np.size(shifts_m), np.nan)
     dof = 0
-    for i, d in enumerate(shifts):
-        rss[i], dof_i = _spline_rss(x, h, pattern_m + d + lag_m, low_m, high_m)
+    for i, d in enumerate(np.asarray(shifts_m, dtype=float)):
+        rss[i], dof_i = _spline_rss(x, h, kinks_m + d, low_m, high_m)
         dof = max(dof, dof_i)
-    return _valley(shifts, rss, dof, 0.0, step_m, dof)
+    return rss, dof
 
 
 def kink_signal(trace: Trace, grid_m: np.ndarray, half_window_m: float, signal: str = "height") -> np.ndarray:

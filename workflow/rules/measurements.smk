@@ -178,6 +178,31 @@ rule registration_check:
         "../../scripts/registration_check.py"
 
 
+rule span_accuracy_check:
+    """Validation only (make validate): every true span used under its own id with W near the truth,
+    the stated W uncertainty against the error, the table's estimated accuracy against the planted."""
+    input:
+        report=f"{RESULTS}/spans_report.csv",
+        spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
+        sections=f"{RESULTS}/registration/sections.csv",
+        masts=f"{RESULTS}/registration/masts.csv",
+        masts_truth=f"{RESULTS}/campaign/masts_truth.csv",
+        truth=f"{RESULTS}/campaign/truth.parquet",
+        truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
+        campaign=config["campaign"],
+        catenary=config["catenary"],
+    output:
+        summary=f"{RESULTS}/validation/span_accuracy.csv",
+    log:
+        f"{RESULTS}/logs/span_accuracy_check.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/span_accuracy_check.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/span_accuracy_check.py"
+
+
 rule projection_check:
     """Validation only: projected W against the campaign's truth (dynamic W of each run)."""
     input:

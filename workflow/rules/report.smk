@@ -2,15 +2,19 @@
 
 
 rule front_page:
-    """The HTML report's opening panel: per measured span type, spans used and rejected, the
-    correction's convergence, the Table 2 analogue and the diagnosis' verdict."""
+    """The HTML report's opening panel: the mast table's accuracy as each run measured it, per
+    measured span type, spans used and rejected, the correction's convergence, the Table 2
+    analogue and the diagnosis' verdict."""
     input:
         unpack(front_page_inputs),
         intro="workflow/report/workflow.rst",
         spans_report=f"{RESULTS}/spans_report.csv",
         correction_summary=f"{RESULTS}/correction/summary.csv",
+        sections=f"{RESULTS}/registration/sections.csv",
     output:
         front_page=FRONT_PAGE,
+    params:
+        registration=config["registration"],
     log:
         f"{RESULTS}/logs/front_page.log",
     benchmark:

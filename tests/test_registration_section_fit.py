@@ -1,0 +1,115 @@
+"""A section's supports found jointly from the height (catenary.registration.section_fit), on a
+synthetic height-only trace: a contact wire hung straight between its supports (masts and
+droppers, the droppers' heights drawn about the design presag) less its own sag, recorded every
+0.1 m with 1 mm of noise and 1 mm quantisation by an odometer 0.3 % long and 7 m ahead; and the
+table's accuracy measured from residuals."""
+
+import numpy as np
+import pytest
+
+from catenary.registration.mapping import ChainageMap
+from catenary.registration.section_fit import (fit_section, height_evidence, table_std_from_residuals)
+from catenary.registration.supports import trace_of
+
+SCALE, OFFSET_M = 1.003, 7.0
+
+
+def _section(catenary, n_spans: int, seed: int, name: str = "N2"):
+    """True supports (table frame), the recorded trace and the droppers' W of one section."""
+    rng = np.random.default_rng(seed)
+    st = catenary.span_type(name)
+    masts = 100.0 + st.length_m * np.arange(n_spans + 1)
+    knots_x, knots_h = [], []
+    heights = 5.08 + rng.uniform(-0.03, 0.03, n_spans + 1)
+    p = st.dropper_positions_m
+    for k in range(n_spans):
+        w = -4 * st.presag_m * (p - p[0]) * (p[-1] - p) / (p[-1] - p[0]) ** 2 + rng.normal(0, 0.004, p.size)
+        knots_x += list(np.r_[masts[k], masts[k] + p])
+        knots_h += list(np.r_[heights[k], heights[k] + (heights[k + 1] - heights[k]) * p / st.length_m + w])
+    knots_x.append(masts[-1])
+    knots_h.append(heights[-1])
+    kx, kh = np.array(knots_x), np.array(knots_h)
+    x = np.arange(masts[0] - 3.0, masts[-1] + 3.0, 0.1)
+    seg = np.clip(np.searchsorted(kx, x, "right") - 1, 0, kx.size - 2)
+    ell = kx[seg + 1] - kx[seg]
+    u = np.clip((x - kx[seg]) / ell, 0.0, 1.0)
+    sag = catenary.contact.mass_per_length_kg_m * catenary.gravity_m_s2 * ell ** 2 / (8 * 25500.0)
+    h = np.interp(x, kx, kh) - np.where((x >= kx[0]) & (x <= kx[-1]), 4 * sag * u * (1 - u), 0.0)
+    h = 1e-3 * np.round((h + rng.normal(0.0, 1e-3, x.size)) / 1e-3)
+    recorded = OFFSET_M + masts[0] + SCALE * (x - masts[0])
+    return masts, trace_of(recorded, h), [name] * n_spans + [None]
+
+
+def _fit(catenary, masts, trace, types, table, listed=None):
+    listed = np.ones(table.size, dtype=bool) if listed is None else listed
+    line = ChainageMap(np.array([OFFSET_M + masts[0], SCALE]), float(masts[0]))
+    guess = line.to_recorded(table)
+    evidence = height_evidence(trace, guess, types, catenary, SCALE, {t: 0.0 for t in set(types) - {None}}, 1.5)
+    lengths = np.array([catenary.span_type(t).length_m for t in types[:-1]])
+    # the coarse line as the registration's search gives it: through the table, off by its errors
+    start = np.polyfit(table[listed] - table[0], guess[listed], 1)[::-1]
+    return evidence, fit_section(evidence, table, listed, lengths, initial=ChainageMap(start, float(table[0])),
+                                 degree=1, prior_std_m=0.2)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_loose_tables_section_is_found_jointly_and_the_table_measured(catenary, seed):
+    # A table kept to the metre (uniform ±1 m: σ 0.58 m) given the prior 0.2 m of the own-data
+    # template. Each support's own evidence places it to 0.05–0.065 m RMS on this trace (a
+    # quasi-static wire's kinks are sharper than a dynamic pass's, where it is 0.2–0.3 m); the
+    # whole section, its span lengths and the table together place every support within 0.15 m,
+    # half the dynamic pass's own error (measured 0.008 / 0.020 m RMS, 0.015 / 0.035 m at worst;
+    # six draws: 0.035 m at worst).
+    n = 20
+    masts, trace, types = _section(catenary, n, seed)
+    rng = np.random.default_rng(100 + seed)
+    table = masts + rng.uniform(-1.0, 1.0, masts.size)
+    _, fit = _fit(catenary, masts, trace, types, table)
+    truth = OFFSET_M + masts[0] + SCALE * (masts - masts[0])
+    error = fit.position_m - truth
+    assert np.max(np.abs(error)) < 0.15, error
+    # The map's scale to 0.01 % (the section's 1.2 km read by every support).
+    assert fit.chainage_map.scale == pytest.approx(SCALE, abs=1e-4)
+    # The table's accuracy: the realized error's standard deviation about the best line (what any
+    # estimate from 21 masts can know; of uniform errors, the planted σ itself to ≈ 10 %) within
+    # 15 %: the supports' own error (≈ 0.03 m) is a twentieth of the table's (measured 0.999 and
+    # 0.997 of it; six draws 0.96–1.00).
+    deviation = table - masts
+    a = np.vander(masts - masts[0], 2)
+    realized = np.sqrt(np.sum((deviation - a @ np.linalg.lstsq(a, deviation, rcond=None)[0]) ** 2) / (n + 1 - 2))
+    assert fit.table_std_m == pytest.approx(realized, rel=0.15)
+    # Its standard errors say so: every error within 3 of them (measured 1.1 at worst).
+    assert np.all(np.abs(error) < 3.0 * fit.std_m)
+
+
+def test_the_spans_place_a_support_the_trace_and_the_table_cannot(catenary):
+    # The trace has a drop-out over mast 10's whole window (its droppers' kinks and its own are
+    # lost) and the table puts it 1.2 m off: its neighbours' supports and its two spans' lengths
+    # still place it within 0.15 m (measured 0.005 m), not where the table says.
+    masts, trace, types = _section(catenary, 20, seed=3)
+    truth = OFFSET_M + masts[0] + SCALE * (masts - masts[0])
+    lost = np.abs(trace.chainage_m - truth[10]) < 31.0        # its window reaches 29.6 m each side
+    trace = trace_of(trace.chainage_m, np.where(lost, np.nan, trace.height_m))
+    table = masts + np.random.default_rng(4).uniform(-0.3, 0.3, masts.size)
+    table[10] = masts[10] + 1.2
+    evidence, fit = _fit(catenary, masts, trace, types, table)
+    assert np.all(evidence.log_likelihood[10] == 0.0) and np.isnan(evidence.own_m[10])
+    assert abs(fit.position_m[10] - truth[10]) < 0.15
+
+
+def test_the_table_accuracy_from_gaussian_residuals_recovers_the_planted_one():
+    # 200 masts, a table with σ 0.3 m, each trace position with its own known error 0.01–0.2 m,
+    # a line fitted to them: the residuals' mean square less the traces' variances. Its sampling
+    # error: var(σ̂²) ≈ 2 (σ² + mean s²)² / n, so σ̂ is known to ≈ 5.5 % here; three of those.
+    rng = np.random.default_rng(11)
+    n, sigma = 200, 0.3
+    t = np.sort(rng.uniform(0.0, 1200.0, n))
+    trace_std = rng.uniform(0.01, 0.2, n)
+    position = 3.0 + 1.002 * (t + rng.normal(0.0, sigma, n)) + rng.normal(0.0, trace_std)
+    a = np.vander(t, 2)
+    residual = position - a @ np.linalg.lstsq(a, position, rcond=None)[0]
+    estimate = table_std_from_residuals(residual / 1.002, trace_std / 1.002, 2, prior_std_m=0.01)
+    spread = np.sqrt(2.0) * (sigma ** 2 + np.mean(trace_std ** 2)) / np.sqrt(n) / (2 * sigma ** 2)
+    assert estimate == pytest.approx(sigma, rel=3 * spread)
+    # With no more masts than the map has coefficients the run cannot tell: the configured value.
+    assert table_std_from_residuals(residual[:2], trace_std[:2], 2, prior_std_m=0.07) == 0.07
