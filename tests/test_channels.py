@@ -1,0 +1,111 @@
+"""Measurements besides W: the wear geometry, the joint log-density with W, and the quantities
+as the model and the campaign give them."""
+
+import numpy as np
+import pytest
+from scipy import integrate, stats
+
+from catenary.channels.observations import LineObservation, Observations, joint_log_density, line_log_density
+from catenary.channels.quantities import QUANTITIES, model_columns, observe
+from catenary.channels.wear import residual_thickness_m, segment_area_m2, wear_depth_m, wear_fraction
+from catenary.config import Wire
+from catenary.effects import SpanParameters
+
+WIRE = Wire(1.35, 195.0, diameter_m=0.0148, section_area_m2=150e-6)
+
+
+def test_segment_area_is_the_integral_of_the_chord():
+    # A(w) = ∫₀ʷ 2√(2 r t − t²) dt: the area of the flat worn off a circle, independently by quadrature
+    r = 0.0074
+    for w in (1e-5, 5e-4, 2e-3, r, 1.5 * r):
+        exact, _ = integrate.quad(lambda t: 2 * np.sqrt(2 * r * t - t * t), 0.0, w, epsabs=1e-16)
+        assert segment_area_m2(w, r) == pytest.approx(exact, rel=1e-9)
+    assert segment_area_m2(2 * r, r) == pytest.approx(np.pi * r * r, rel=1e-12)     # the whole circle
+
+
+def test_thickness_and_fraction_are_inverse_maps():
+    eps = np.array([-0.1, -1e-4, 0.0, 1e-6, 0.01, 0.08, 0.2, 0.3])
+    t = residual_thickness_m(eps, WIRE)
+    assert np.allclose(wear_fraction(t, WIRE), eps, atol=1e-12)          # Newton to 1e-12 of the diameter
+    assert np.all(np.diff(t) < 0)                                        # more wear, thinner wire
+    # 10 % of a 150 mm² AC-150 wire (∅ 14.8 mm) is the segment of 15 mm²: a flat 2.1 mm deep, a little
+    # deeper than the shallow-flat law (4/3)√(2r) w^1.5 gives (its next term is −w/10r of the area)
+    w = wear_depth_m(0.10, WIRE)
+    assert segment_area_m2(w, 0.0074) == pytest.approx(15e-6, rel=1e-9)
+    assert 1.0 < w / (3 * 15e-6 / (4 * np.sqrt(0.0148))) ** (2 / 3) < 1.0 + 0.28 / 10 * 1.5
+
+
+def test_quantities_read_the_span_parameters():
+    p = SpanParameters.independent_spans(np.full((3, 9), 1.0), np.array([2.0e4, 2.1e4, 2.2e4]),
+                                         np.array([1.38, 1.39, 1.40]), np.array([1.38, 1.39, 1.40]),
+                                         system_height_mean_m=1.39, contact_tension_n=25500.0, measuring_force_n=36.0)
+    p.cw_wear_fraction = np.array([0.0, 0.05, 0.1])
+
+    class _Catenary:                      # the quantities read only the contact wire of the catenary
+        contact = WIRE
+    names = ("cw_residual_thickness_m", "messenger_tension_n", "system_height_m", "measuring_force_n")
+    y = observe(p, _Catenary(), names)
+    assert model_columns(names) == ["cw_residual_thickness_m", "messenger_tension_n", "system_height_m_left",
+                                    "system_height_m_right", "measuring_force_n"]
+    assert y.shape == (3, 5)
+    assert np.allclose(y[:, 0], residual_thickness_m(p.cw_wear_fraction, WIRE))
+    assert np.allclose(y[:, 1], p.messenger_tension_n) and np.allclose(y[:, 4], 36.0)
+    assert set(QUANTITIES) >= set(names)
+
+
+def _dense_log_density(w, obs, mean, cov):
+    """The same law written out over every span at once: the stacked vector of what was
+    measured, its covariance block-diagonal per span plus the shared offsets' s² e eᵀ."""
+    k, n = w.shape
+    parts, means, index = [], [], []
+    for i in range(k):
+        cols = np.r_[np.arange(n), n + np.flatnonzero(np.isfinite(obs.values[i]))]
+        parts.append(np.r_[w[i], obs.values[i][np.isfinite(obs.values[i])]])
+        means.append(mean[cols])
+        index.append((i, cols))
+    x, m = np.concatenate(parts), np.concatenate(means)
+    big = np.zeros((x.size, x.size))
+    starts = np.cumsum([0] + [c.size for _, c in index])
+    for (i, cols), a in zip(index, starts[:-1]):
+        block = cov[np.ix_(cols, cols)].copy()
+        for j, c in enumerate(cols[n:]):
+            block[n + j, n + j] += obs.std[i, c - n] ** 2
+        big[a:a + cols.size, a:a + cols.size] = block
+    for c in np.flatnonzero(obs.common_std > 0):
+        e = np.concatenate([(cols == n + c).astype(float) for _, cols in index])
+        big += obs.common_std[c] ** 2 * np.outer(e, e)
+    return stats.multivariate_normal(m, big).logpdf(x)
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_joint_log_density_is_the_dense_gaussian_of_every_span(shared):
+    rng = np.random.default_rng(3)
+    n, c, k = 3, 3, 7
+    a = rng.standard_normal((n + c, n + c))
+    cov = a @ a.T + 0.5 * np.eye(n + c)
+    cov[n + 1, :] = cov[:, n + 1] = 0.0                     # a quantity the model holds fixed
+    mean = rng.standard_normal(n + c)
+    w = rng.standard_normal((k, n))
+    values = rng.standard_normal((k, c))
+    values[rng.uniform(size=(k, c)) < 0.4] = np.nan          # measured on some spans only
+    values[0] = np.nan
+    std = np.where(np.isfinite(values), rng.uniform(0.2, 0.6, size=(k, c)), np.nan)
+    obs = Observations(("cw_residual_thickness_m", "system_height_m"), values, std,
+                       common_std=np.array([0.7, 0.0, 0.4]) if shared else None)
+    per_span, common = joint_log_density(w, obs, mean, cov)
+    assert per_span.sum() + common == pytest.approx(_dense_log_density(w, obs, mean, cov), rel=1e-10)
+    assert (common != 0.0) == shared
+
+
+def test_line_observation_is_a_normal_density():
+    obs = Observations((), np.zeros((2, 0)), np.zeros((2, 0)), (LineObservation("measuring_force_n", 38.0, 0.5),))
+    assert line_log_density(obs, np.array([36.0]), np.array([0.0])) == pytest.approx(stats.norm(36.0, 0.5).logpdf(38.0))
+
+
+def test_observations_refuse_what_they_cannot_read():
+    with pytest.raises(ValueError, match="standard uncertainty"):
+        Observations(("messenger_tension_n",), np.array([[2e4]]), np.array([[0.0]]))
+    with pytest.raises(ValueError, match="unknown"):
+        Observations(("tension",), np.zeros((1, 1)), np.ones((1, 1)))
+    with pytest.raises(ValueError, match="LineObservation"):
+        Observations(("measuring_force_n",), np.zeros((1, 1)), np.ones((1, 1)))
