@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .diagnosis.recommend import recommendation_text
+from .diagnosis.recommend import describe_measurement
 
 # Snakemake renders the page with Jinja before docutils: no text of ours may hold Jinja markup.
 _JINJA = ("{{", "}}", "{%", "%}", "{#", "#}")
@@ -149,26 +149,41 @@ def diagnosis_lines(findings: pd.DataFrame | None) -> list[str]:
 
 
 def next_measurement_lines(recommendations: pd.DataFrame | None) -> list[str]:
-    """The measuring car's caveat, said once, with the measurement that settles it, and how many
-    candidates W cannot see at their realistic size (each with its measurement in the diagnosis
-    summary; ambiguous steps carry theirs in :func:`diagnosis_lines`)."""
+    """How many candidates W cannot see at their realistic size, and how many of them a listed
+    measurement would settle (each with its measurement in the diagnosis summary; ambiguous
+    steps carry theirs in :func:`diagnosis_lines`; the car is :func:`car_lines`)."""
     if recommendations is None or recommendations.empty:
         return []
     chosen = recommendations[recommendations["recommended"].astype(str).str.lower() == "true"]
-    lines = []
-    for r in chosen[chosen["kind"] == "car"].to_dict("records"):
-        lines.append(f"**The measuring car:** W alone cannot tell {r['question']} (the model-error budget's 95 % "
-                     "bound) from the catenary, for every finding alike; the 95 % total intervals above hold what it "
-                     f"would move. To settle it: {recommendation_text(r)}.")
-        lines.append("")
     hidden = chosen[chosen["kind"] == "undetectable"]
-    if len(hidden):
-        settled = hidden[hidden["enough"].astype(str).str.lower() == "true"]
-        lines.append(f"**Undetectable at a realistic size with the height alone:** {len(hidden)} candidate "
-                     f"magnitude(s); {len(settled)} of them a listed measurement would settle (*6 Diagnosis* › "
-                     "summary, *What to measure next*).")
-        lines.append("")
-    return lines
+    if not len(hidden):
+        return []
+    settled = hidden[hidden["enough"].astype(str).str.lower() == "true"]
+    return [f"**Undetectable at a realistic size with the height alone:** {len(hidden)} candidate "
+            f"magnitude(s); {len(settled)} of them a listed measurement would settle (*6 Diagnosis* › "
+            "summary, *What to measure next*).", ""]
+
+
+def car_lines(recommendations: dict[str, pd.DataFrame | None] | None) -> list[str]:
+    """The measuring car's caveat, said once for the whole page (the car is the same for every
+    span type), with the measurement that settles it and its predicted power per type."""
+    rows = []
+    for span_type, table in (recommendations or {}).items():
+        if table is None or table.empty:
+            continue
+        chosen = table[(table["recommended"].astype(str).str.lower() == "true") & (table["kind"] == "car")]
+        rows += [(span_type, r) for r in chosen.to_dict("records")]
+    if not rows:
+        return []
+    first = rows[0][1]
+    powers = ", ".join(f"{float(r['power'] if str(r['enough']).lower() == 'true' else r['power_full']):.2f} on "
+                       f"{span_type}" for span_type, r in rows)
+    what = describe_measurement(first["quantity"], first["per"], int(first["extent"]), float(first["cost_h"]))
+    return _heading("The measuring car", "-") + [
+        f"W alone cannot tell {first['question']} (the model-error budget's 95 % bound) from the catenary: the "
+        "free means absorb the uplift it leaves in every span. This concerns every finding alike, none in "
+        "particular; the 95 % total intervals above hold what it would move. To settle it: "
+        f"{what}, predicted power {powers} (diagnosis summary, *What to measure next*).", ""]
 
 
 def unexplained_lines(spans: pd.DataFrame | None, sections: pd.DataFrame | None) -> list[str]:
@@ -241,6 +256,7 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
         lines += diagnosis_lines(findings.get(span_type))
         lines += next_measurement_lines((recommendations or {}).get(span_type))
         lines += unexplained_lines(*((checks or {}).get(span_type) or (None, None)))
+    lines += car_lines(recommendations)
     text = "\n".join(lines) + "\n"
     for mark in _JINJA:
         text = text.replace(mark, " ".join(mark))

@@ -109,3 +109,69 @@ def test_observations_refuse_what_they_cannot_read():
         Observations(("tension",), np.zeros((1, 1)), np.ones((1, 1)))
     with pytest.raises(ValueError, match="LineObservation"):
         Observations(("measuring_force_n",), np.zeros((1, 1)), np.ones((1, 1)))
+
+
+# --- the survey file and the assembly of one type's measurements --------------------------------
+
+def _spans_table():
+    """Two spans of one section, each measured by two runs (the second declared at 40 N)."""
+    import pandas as pd
+    return pd.DataFrame({
+        "span_id": ["A-B", "B-C", "A-B", "B-C"], "run_id": ["r1", "r1", "r2", "r2"], "force_n": [36.0, 36.0, 40.0, 40.0],
+        "section_id": ["S1"] * 4, "left_mast_id": ["A", "B", "A", "B"], "right_mast_id": ["B", "C", "B", "C"],
+        "cw_residual_thickness_m": [0.0140, 0.0138, 0.0142, np.nan],
+        "cw_residual_thickness_se_m": [4e-5, 4e-5, 4e-5, np.nan],
+        "contact_force_n": [37.0, 39.0, 42.0, 44.0]})
+
+
+def test_survey_errors_name_the_row_and_column(tmp_path):
+    from catenary.channels.survey import read_survey
+    from catenary.errors import InputError
+    path = tmp_path / "survey.csv"
+    path.write_text("quantity,span_id,section_id,mast_id,value,std\n"
+                    "messenger_tension_n,A-B,,,20400,800\n"
+                    "system_height_m,,,,1.39,\n")
+    with pytest.raises(InputError, match=r"survey.csv: row 2 \(line 3\), column 'mast_id'"):
+        read_survey(path)
+    path.write_text("quantity,span_id,value\nmessenger_tension_n,A-B,20.4\n")      # kN, not N
+    with pytest.raises(InputError, match=r"row 1 \(line 2\), column 'value': 20.4"):
+        read_survey(path)
+    path.write_text("quantity,value\ntension,20400\n")
+    with pytest.raises(InputError, match="column 'quantity': 'tension'; expected one of"):
+        read_survey(path)
+    path.write_text("quantity,span_id,section_id,mast_id,value,std\n")
+    assert read_survey(path).empty
+
+
+def test_observations_place_each_value_on_its_span(tmp_path):
+    from catenary.channels.assemble import observations_for
+    from catenary.channels.settings import MeasurementSettings
+    from catenary.channels.survey import read_survey
+    path = tmp_path / "survey.csv"
+    path.write_text("quantity,span_id,section_id,mast_id,value,std\n"
+                    "cw_residual_thickness_m,A-B,,,0.0139,0.0001\n"
+                    "contact_tension_n,,S1,,25600,\n"
+                    "system_height_m,,,C,1.40,0.004\n"
+                    "system_height_m,,,Z,1.40,0.004\n"
+                    "measuring_force_n,,,,38.5,0.5\n")
+    settings = MeasurementSettings()
+    obs, unused = observations_for(["A-B", "B-C"], _spans_table(), read_survey(path), settings, 36.0)
+    assert obs.quantities == ("cw_residual_thickness_m", "contact_tension_n", "system_height_m")
+    col = {c: i for i, c in enumerate(obs.columns)}
+    # span A-B: two runs' means averaged, their error (3e-5 accuracy and 4e-5 samples) over √2,
+    # then the calliper's 0.0139 ± 0.0001 by inverse variance
+    chan, chan_std = 0.0141, np.sqrt((3e-5 ** 2 + 4e-5 ** 2) / 2)
+    w = np.array([1 / chan_std ** 2, 1 / 1e-4 ** 2])
+    assert obs.values[0, col["cw_residual_thickness_m"]] == pytest.approx((w[0] * chan + w[1] * 0.0139) / w.sum(),
+                                                                       rel=1e-12)
+    assert obs.std[0, col["cw_residual_thickness_m"]] == pytest.approx(1 / np.sqrt(w.sum()), rel=1e-12)
+    assert obs.values[1, col["cw_residual_thickness_m"]] == pytest.approx(0.0138)       # one run only
+    # the section's CW tension on its first span, with the config's accuracy; mast C ends B-C
+    assert obs.values[0, col["contact_tension_n"]] == 25600 and np.isnan(obs.values[1, col["contact_tension_n"]])
+    assert obs.std[0, col["contact_tension_n"]] == settings.accuracy["contact_tension_n"].std
+    assert obs.values[1, col["system_height_m_right"]] == 1.40
+    assert obs.common_std[col["cw_residual_thickness_m"]] == settings.accuracy["cw_residual_thickness_m"].common_std
+    # the line: the calibration, and each run's mean contact force less its declared force's excess
+    assert [(o.value, o.std) for o in obs.line][0] == (38.5, 0.5)
+    assert [o.value for o in obs.line[1:]] == pytest.approx([38.0, 39.0])
+    assert list(unused["mast_id"]) == ["Z"] and "not among" in unused["reason"].iloc[0]

@@ -53,7 +53,7 @@ from .candidates import CANDIDATES
 from .locate import lr_power
 from .refits import moment_steps
 
-__all__ = ["Contrast", "Extent", "Question", "RECOMMENDATION_COLUMNS", "describe_measurement", "noncentrality",
+__all__ = ["NOT_ASKED", "Contrast", "Extent", "Question", "RECOMMENDATION_COLUMNS", "describe_measurement", "noncentrality",
            "questions", "recommend", "recommendation_text"]
 
 #: Columns of ``recommendations.csv`` (one row per question and option).
@@ -119,6 +119,16 @@ class Extent:
                 "mast": min(self.masts, self.spans)}[per]
 
 
+#: Candidates no question is asked about: the negative control, which the projection onto the
+#: chord removes by design (:mod:`.candidates`), so that nothing about it needs settling.
+NOT_ASKED = ("steady_arm_height_difference",)
+
+
+def _size(value: float, unit: str) -> str:
+    """A size in words: a fraction of the section in %, else with its unit."""
+    return f"{100 * value:g} %" if unit == "-" else f"{value:g} {unit}"
+
+
 def describe_measurement(quantity: str, per: str, extent: int, cost_h: float) -> str:
     """The measurement in words: what, on how many units, and its cost."""
     what = QUANTITIES[quantity].label
@@ -133,8 +143,8 @@ def recommendation_text(row) -> str:
     text = describe_measurement(row["quantity"], row["per"], int(row["extent"]), float(row["cost_h"]))
     if bool(row["enough"]):
         return f"{text}: predicted power {float(row['power']):.2f}"
-    return (f"{text}: predicted power only {float(row['power_full']):.2f} with every "
-            f"{'unit' if row['per'] in ('run', 'line') else row['per']} the line has — no option listed settles it")
+    every = "" if row["per"] in ("run", "line") else f" with every {row['per']} the line has"
+    return f"{text}: predicted power only {float(row['power_full']):.2f}{every}, short of what is asked"
 
 
 def questions(run, *, car_force_n: float | None = None) -> list[Question]:
@@ -163,12 +173,13 @@ def questions(run, *, car_force_n: float | None = None) -> list[Question]:
     step = last.step if last is not None else 0
     if last is not None:
         for c in last.candidates:
-            if c.effect in final[0] or c.effect == "measuring_force_offset" and car_force_n is not None:
+            if c.effect in final[0] or c.effect in NOT_ASKED or (c.effect == "measuring_force_offset"
+                                                                 and car_force_n is not None):
                 continue
             for k, p in enumerate(CANDIDATES[c.effect].parameters):
                 if not c.detectable.get(p.name, 0.0) > p.realistic:
                     continue
-                out.append(Question("undetectable", step, f"{c.effect} {p.name} at {p.realistic:g} {p.unit}",
+                out.append(Question("undetectable", step, f"{c.effect} {p.name} at {_size(p.realistic, p.unit)}",
                                     (_effect_at(final, c.effect, k, p.realistic, p.kind),), level))
     if car_force_n is not None and "measuring_force_offset" not in final[0] and \
             "measuring_force_offset" in run.settings.candidates:
@@ -183,7 +194,7 @@ def _effect_at(final: tuple, effect: str, k: int, size: float, kind: str) -> Con
     params = CANDIDATES[effect].parameters
     extra = np.zeros(len(params))
     extra[k] = size / params[k].scale
-    return Contrast(f"{effect} {params[k].name} = {size:g} {params[k].unit}", ((*final[0], effect),
+    return Contrast(f"{effect} {params[k].name} = {_size(size, params[k].unit)}", ((*final[0], effect),
                     np.r_[final[1], extra]), final, int(kind == "shift"), int(kind == "spread"))
 
 
