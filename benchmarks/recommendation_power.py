@@ -137,8 +137,8 @@ def realised(ctx, draw, contrast, option, extent, level, settings, replicates, s
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--replicates", type=int, default=40)
-    parser.add_argument("--null-replicates", type=int, default=100)
+    parser.add_argument("--replicates", type=int, default=100)
+    parser.add_argument("--null-replicates", type=int, default=400)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("names", nargs="*")
     args = parser.parse_args()

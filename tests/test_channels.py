@@ -95,6 +95,21 @@ def test_joint_log_density_is_the_dense_gaussian_of_every_span(shared):
     per_span, common = joint_log_density(w, obs, mean, cov)
     assert per_span.sum() + common == pytest.approx(_dense_log_density(w, obs, mean, cov), rel=1e-10)
     assert (common != 0.0) == shared
+    if shared:
+        # each span's term is its own Gaussian at the shared offsets' posterior mode ô, found here
+        # by a generic optimiser over o of Σ_k ln N(x_k − E_k o) − ½ oᵀS⁻¹o (tolerance: the optimiser's)
+        from scipy import optimize
+        offsets = np.flatnonzero(obs.common_std > 0)
+
+        def span_terms(o):
+            shifted = obs.values.copy()
+            shifted[:, offsets] -= o
+            zero = Observations(obs.quantities, shifted, obs.std)
+            return joint_log_density(w, zero, mean, cov)[0]
+
+        best = optimize.minimize(lambda o: -(span_terms(o).sum() - 0.5 * np.sum(o ** 2 / obs.common_std[offsets] ** 2)),
+                                 np.zeros(offsets.size), method="BFGS", options={"gtol": 1e-10})
+        assert per_span == pytest.approx(span_terms(best.x), abs=1e-6)
 
 
 def test_line_observation_is_a_normal_density():
@@ -175,3 +190,38 @@ def test_observations_place_each_value_on_its_span(tmp_path):
     assert [(o.value, o.std) for o in obs.line][0] == (38.5, 0.5)
     assert [o.value for o in obs.line[1:]] == pytest.approx([38.0, 39.0])
     assert list(unused["mast_id"]) == ["Z"] and "not among" in unused["reason"].iloc[0]
+
+
+# --- the recommendation's non-centrality ------------------------------------------------------
+
+def test_noncentrality_reads_a_mean_only_beyond_its_calibration():
+    # One quantity measured on N units with variance v; the truth moves its mean by Δ. Free: λ =
+    # N Δ²/v. With a shared calibration error of variance 1/p (a coordinate the null may move at
+    # the price of its prior), the mean is one measurement of variance v/N + 1/p: λ = Δ²/(v/N + 1/p).
+    # A null coordinate that moves exactly along the change absorbs it all: λ = 0. Exact algebra:
+    # tolerance is round-off.
+    from catenary.diagnosis.recommend import noncentrality
+    n_units, v, delta, p = 40, 0.3 ** 2, 0.2, 1.0 / 0.05 ** 2
+    e = np.array([1.0])
+    change = (delta * e, np.zeros((1, 1)))
+    ref = np.zeros((1, 1))
+    groups = [(n_units, np.array([0]), np.array([v]))]
+    assert noncentrality(change, [], ref, groups) == pytest.approx(n_units * delta ** 2 / v, rel=1e-12)
+    shared = [(e, np.zeros((1, 1)))]
+    assert noncentrality(change, shared, ref, groups, [p]) == pytest.approx(delta ** 2 / (v / n_units + 1 / p),
+                                                                         rel=1e-10)
+    assert noncentrality(change, shared, ref, groups, [0.0]) == pytest.approx(0.0, abs=1e-12)
+    # a change of variance: ½ N (Δv / v)² (the Fisher information of a normal variance)
+    dv = 0.01
+    assert noncentrality((np.zeros(1), np.array([[dv]])), [], ref, groups) == pytest.approx(
+        0.5 * n_units * (dv / v) ** 2, rel=1e-12)
+
+
+def test_lr_power_is_the_normal_and_chi2_power():
+    from catenary.diagnosis.locate import lr_power
+    level, lam = 0.01, 9.0
+    # one spread alone: one-sided √LR ~ N(√λ, 1)
+    assert lr_power(lam, 0, 1, level) == pytest.approx(stats.norm.cdf(3.0 - stats.norm.isf(level)), rel=1e-9)
+    # one shift: χ²₁(λ) beyond its level's critical value, i.e. |N(√λ, 1)| > z_{α/2}
+    z = stats.norm.isf(level / 2)
+    assert lr_power(lam, 1, 0, level) == pytest.approx(stats.norm.sf(z - 3.0) + stats.norm.cdf(-z - 3.0), rel=1e-6)

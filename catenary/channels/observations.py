@@ -139,9 +139,10 @@ def joint_log_density(w: np.ndarray, obs: Observations, mean: np.ndarray, covari
     Returns
     -------
     log_density : numpy.ndarray, shape (K,)
-        Each span's ``ln p`` with the errors shared by every span left aside.
+        Each span's ``ln p`` at the shared errors' estimate ô (its residual less ô's share).
     common : float
-        The shared errors' term (module docstring; 0 without any).
+        The shared errors' term, ``−½ ôᵀS⁻¹ô − ½ ln det(I + S A)``: with the spans' terms, the
+        exact marginal of the module docstring (0 without any shared error).
 
     Raises
     ------
@@ -159,6 +160,7 @@ def joint_log_density(w: np.ndarray, obs: Observations, mean: np.ndarray, covari
         noises.append(np.asarray(r, dtype=float))
         noise_of[np.asarray(rows, dtype=bool)] = len(noises) - 1
     out = np.empty(k)
+    carried = []
     keys = np.column_stack([measured, noise_of])
     for key in np.unique(keys, axis=0):
         rows = np.all(keys == key, axis=1)
@@ -182,12 +184,20 @@ def joint_log_density(w: np.ndarray, obs: Observations, mean: np.ndarray, covari
             ew = np.linalg.solve(chol, np.broadcast_to(e, (r.shape[0], *e.shape)))
             a_sum[np.ix_(moved, moved)] += np.einsum("kia,kib->ab", ew, ew)
             b_sum[moved] += np.einsum("kia,ki->a", ew, r)
+            carried.append((rows, moved, ew, r))
     if not shared.size:
         return out, 0.0
     s2 = obs.common_std[shared] ** 2
     sign, logdet = np.linalg.slogdet(np.eye(shared.size) + s2[:, None] * a_sum)
-    quad = b_sum @ np.linalg.solve(a_sum + np.diag(1.0 / s2), b_sum)
-    return out, float(-0.5 * logdet + 0.5 * quad)
+    # Each span's term at the shared offsets' estimate ô = (A + S⁻¹)⁻¹ b (its residual less what
+    # the common error explains), the rest the offsets' prior: Σ_k ℓ_k(r_k − E_k ô) − ½ ôᵀS⁻¹ô
+    # − ½ ln det(I + S A) is the exact marginal of the module docstring, and the spans' terms
+    # no longer share the offset (their scores are what a sandwich over spans may read).
+    o_hat = np.linalg.solve(a_sum + np.diag(1.0 / s2), b_sum)
+    for rows, moved, ew, r in carried:
+        shift = np.einsum("kia,a->ki", ew, o_hat[moved])              # whitened E_k ô
+        out[rows] += np.einsum("ki,ki->k", shift, r) - 0.5 * np.einsum("ki,ki->k", shift, shift)
+    return out, float(-0.5 * logdet - 0.5 * o_hat @ (o_hat / s2))
 
 
 def line_log_density(obs: Observations, mean: np.ndarray, variance: np.ndarray) -> float:

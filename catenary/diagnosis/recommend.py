@@ -38,6 +38,11 @@ measured; a car run covers every span) that reaches the configured power is foun
 the extent), and its cost is the extent times the hours of one unit; the recommendation is the
 cheapest option that reaches the power, or, if none does, the one with the highest power,
 marked as not enough.
+
+Measurements already made (the diagnosis' observations: a wear channel, a survey) are groups of
+the same sum: a question they settle with the configured power is not asked again (the
+diagnosis' own test, which reads them, answers it), and an option measuring a quantity already
+measured is not offered.
 """
 
 from __future__ import annotations
@@ -255,6 +260,33 @@ def _groups(option: MeasurementOption, k: int, n_w: int, n: int, column: int, va
     return [(k, np.r_[w, column], np.r_[np.zeros(n), variance]), (n_w - k, w, np.zeros(n))]
 
 
+def _existing_groups(obs, n: int, quantities: tuple[str, ...]):
+    """The measurements already made as groups of :func:`noncentrality` (spans carrying the same
+    columns, each column's mean variance; the line observations one unit each) and their shared
+    errors as (direction, prior precision)."""
+    if obs is None or obs.empty:
+        return [], []
+    index = {c: n + i for i, c in enumerate(model_columns(quantities))}
+    cols = [index[c] for c in obs.columns]
+    measured = np.isfinite(obs.values)
+    groups = []
+    for key in np.unique(measured, axis=0):
+        rows = np.all(measured == key, axis=1)
+        variance = np.nanmean(obs.std[rows][:, key] ** 2, axis=0) if key.any() else np.zeros(0)
+        groups.append((int(rows.sum()), np.r_[np.arange(n), np.asarray(cols)[key]].astype(int),
+                       np.r_[np.zeros(n), variance]))
+    for o in obs.line:
+        groups.append((1, np.array([index[o.quantity]]), np.array([o.std ** 2])))
+    size = n + len(index)
+    shared = []
+    for c, s in zip(cols, obs.common_std):
+        if s > 0:
+            e = np.zeros(size)
+            e[c] = 1.0
+            shared.append(((e, np.zeros((size, size))), 1.0 / s ** 2))
+    return groups, shared
+
+
 def recommend(ctx, qs: list[Question], settings: MeasurementSettings, extent: Extent, power: float) -> pd.DataFrame:
     """Every option's smallest extent, cost and power for every question, the recommendation
     marked (:data:`RECOMMENDATION_COLUMNS`; module docstring).
@@ -271,11 +303,14 @@ def recommend(ctx, qs: list[Question], settings: MeasurementSettings, extent: Ex
         Power a measurement must reach.
     """
     rows = []
-    options = [o for o in settings.options if o.quantity in QUANTITIES]
-    quantities = tuple(dict.fromkeys(o.quantity for o in options))
+    made = ctx.observations
+    measured = set() if made is None else {*made.quantities, *(o.quantity for o in made.line)}
+    options = [o for o in settings.options if o.quantity in QUANTITIES and o.quantity not in measured]
+    quantities = tuple(dict.fromkeys((*(o.quantity for o in settings.options), *sorted(measured))))
     n = ctx.span_type.n_droppers
     n_w = ctx.data.shape[0]
     where = _columns(n, quantities)
+    existing, existing_prior = _existing_groups(made, n, quantities)
     cache: dict = {}
 
     def moments(model):
@@ -308,6 +343,11 @@ def recommend(ctx, qs: list[Question], settings: MeasurementSettings, extent: Ex
                 prepared = None
                 break
             prepared.append((c, (truth[0] - null[0], truth[1] - null[1]), directions(c.null), null[1]))
+        if prepared and existing and min(
+                lr_power(noncentrality(change, dirs + [d for d, _ in existing_prior], ref, existing,
+                                       np.r_[np.zeros(len(dirs)), [p for _, p in existing_prior]]),
+                         c.n_shift, c.n_spread, q.level) for c, change, dirs, ref in prepared) >= power:
+            continue                   # what was measured already settles it: the diagnosis' own test answers
         for o in options:
             acc = settings.accuracy[o.quantity]
             col = where[o.quantity]

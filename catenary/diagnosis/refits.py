@@ -169,7 +169,11 @@ class DiagnosisContext:
     def locate(self, problem: JointProblem, fit: Fit) -> Locate:
         value = problem.evaluate(fit.theta)
         draws = self.model_draws(problem, fit.theta, self.settings.bootstrap_replicates * self.data.shape[0])
-        return locate(self.data, value.fit, value.j, draws, n_replicates=self.settings.bootstrap_replicates)
+        # the located figures are of W: with measurements besides W, J of W's own law (the free
+        # Gaussian it is compared with has no other quantity)
+        j = value.j if value.fit is None or self.observations is None else float(
+            np.sum(problem.likelihood.data_log_density(value.fit)))
+        return locate(self.data, value.fit, j, draws, n_replicates=self.settings.bootstrap_replicates)
 
 
 def _information(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndarray, base_moments) -> tuple:
