@@ -68,6 +68,9 @@ OPEN_WORLD = ("o_local", "o_section", "o_plugin")
 #: calibrated (``channels_check.py``); and, on a run of everything, each recommendation's predicted
 #: power against the power realised by simulating its measurement (``recommendation_power.py``).
 CHANNELS = ("c_ambiguous", "c_ambiguous_wear", "c_null", "c_car", "c_car_calibrated")
+#: Two runs of one line declared at 36 and 60 N, each corrected at its own force: how far their W
+#: agree (repeatability against ``r_two_runs_same``'s).
+TWO_FORCES = "c_two_forces"
 
 
 def campaigns() -> list[str]:
@@ -87,6 +90,8 @@ def targets(name: str) -> list[str]:
     if name in MAINTENANCE:
         return [f"{folder}/validation/maintenance_check.csv", f"{folder}/validation/correction_check.csv",
                 f"{folder}/validation/identification_check.csv", f"{folder}/N2/maintenance/repair_summary.csv"]
+    if name == TWO_FORCES:
+        return [f"{folder}/validation/repeatability_check.csv", f"{folder}/validation/correction_check.csv"]
     if name in RECORDING:
         out = [f"{folder}/validation/projection_round_trip.csv", f"{folder}/validation/registration_check.csv",
                f"{folder}/validation/span_accuracy.csv"]
@@ -197,7 +202,7 @@ def main() -> None:
         times["validate_recommendation_power_s"] = time.perf_counter() - start
     rows = []
     out = None
-    for name in (n for n in names if n not in RECORDING and n not in MAINTENANCE and n != "o_plugin"):
+    for name in (n for n in names if n not in RECORDING and n not in MAINTENANCE and n not in ("o_plugin", TWO_FORCES)):
         folder = ROOT / ("results" if name == "default" else f"results/validate/{name}")
         rows.append(pd.read_csv(folder / "validation" / "diagnosis_check.csv"))
     if rows:                       # campaigns with a diagnosis among those run

@@ -8,6 +8,11 @@ vectors W (n droppers), the law of W is estimated from them and
 
 over the K measured spans. Same design ⇒ same J, bit for bit.
 
+It is one concern, over 500 lines: J of the data under the model sample's law — the estimators, the
+one chunked pass that accumulates the sample's moments (W's and, with measurements besides W,
+the joint ones) and the data's density under them; split apart, the pass and its readers would
+be two copies of one loop.
+
 Estimators
 ----------
 ``"gaussian"`` (default, the paper's choice): multivariate normal with the sample mean and the
