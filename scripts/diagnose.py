@@ -29,9 +29,8 @@ from catenary.identification.data import read_corrected, span_places  # noqa: E4
 from catenary.identification.settings import IdentificationSettings  # noqa: E402
 from catenary.logs import rule_logger  # noqa: E402
 from catenary.maintenance.settings import MaintenanceSettings  # noqa: E402
-from catenary.channels.assemble import observations_for  # noqa: E402
+from catenary.channels.assemble import read_observations  # noqa: E402
 from catenary.channels.settings import MeasurementSettings  # noqa: E402
-from catenary.channels.survey import read_survey  # noqa: E402
 from catenary.diagnosis.recommend import Extent, questions, recommend  # noqa: E402
 from catenary.model_error.propagation import span_shifts  # noqa: E402
 from catenary.model_error.sources import ModelErrorSettings  # noqa: E402
@@ -60,9 +59,9 @@ measuring = measuring_pass_of(snakemake.input.corrected, span_type, catenary, pa
 log.info("measuring pass: %.1f km/h, declared force %.1f N; ∂W/∂F at the droppers %s mm/N", 3.6 * measuring.speed_m_s,
          measuring.force_n, " ".join(f"{1e3 * g:.3f}" for g in measuring.influence_m_n))
 measurements = MeasurementSettings.from_mapping(snakemake.params.measurements)
-survey = read_survey(snakemake.input.survey[0]) if snakemake.input.survey else None
-observations, unused = observations_for(data.span_id, read_table(snakemake.input.spans), survey, measurements,
-                                        measuring.force_n)
+observations, unused = read_observations(data.span_id, snakemake.input.spans,
+                                         snakemake.input.survey[0] if snakemake.input.survey else None,
+                                         measurements, measuring.force_n)
 data = dataclasses.replace(data, observations=None if observations.empty else observations)
 log.info("%s: measured besides W: %s; line: %s; %d survey rows not on this type's spans", span_type.name,
          {q: int(np.isfinite(observations.values[:, i]).sum()) for i, q in enumerate(observations.columns)} or "nothing",

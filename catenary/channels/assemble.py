@@ -32,9 +32,11 @@ from .quantities import QUANTITIES, model_columns
 from .settings import MeasurementSettings
 from .survey import ID_COLUMN
 
-__all__ = ["observations_for"]
+__all__ = ["IDENTIFIED_QUANTITIES", "observations_for", "read_observations"]
 
-_CHANNELS = {"cw_residual_thickness_m": "cw_residual_thickness_m"}
+#: What the identification's model gives besides W: its random inputs measured directly (the
+#: diagnosis reads every quantity; its effects give the others).
+IDENTIFIED_QUANTITIES = ("messenger_tension_n", "system_height_m")
 
 
 def observations_for(span_ids, spans: pd.DataFrame, survey: pd.DataFrame | None, settings: MeasurementSettings,
@@ -165,3 +167,13 @@ def _force_from_channel(spans: pd.DataFrame, settings: MeasurementSettings,
         out.append(LineObservation("measuring_force_n", float(force.mean() - shift),
                                    float(np.hypot(acc.std, se))))
     return out
+
+
+def read_observations(span_ids, spans_path, survey_path, settings: MeasurementSettings, declared_force_n: float,
+                      quantities=None) -> tuple[Observations, pd.DataFrame]:
+    """:func:`observations_for` from the files: the span type's ``spans.parquet`` and the survey
+    file (None: no survey), read and checked (:func:`catenary.channels.survey.read_survey`)."""
+    from ..parquet import read_table
+    from .survey import read_survey
+    survey = read_survey(survey_path) if survey_path else None
+    return observations_for(span_ids, read_table(spans_path), survey, settings, declared_force_n, quantities)
