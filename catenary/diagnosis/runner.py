@@ -93,11 +93,15 @@ class Step:
 
     @property
     def gap_closed_fraction(self) -> float:
-        """Δℓ of the named effect over the free Gaussian's gain (NaN when none was named)."""
+        """The share of the gap to a free Gaussian law of W that the named effect closed: the
+        rise of W's own J from the located model before to the one after, over the free
+        Gaussian's gain (NaN when none was named). Of W's J, not the J the tests compare: with
+        measurements besides W that J also rises by what they say, which no law of W can match."""
         c = self.leading
         if c is None or self.verdict != "named" or self.before.free_gaussian_gain <= 0:
             return float("nan")
-        return float(c.delta_loglik / self.before.free_gaussian_gain)
+        gain = c.delta_loglik if self.after is None else self.after.j - self.before.j
+        return float(gain / self.before.free_gaussian_gain)
 
 
 @dataclass
