@@ -59,7 +59,7 @@ from .locate import lr_power
 from .refits import moment_steps
 
 __all__ = ["NOT_ASKED", "Contrast", "Extent", "Question", "RECOMMENDATION_COLUMNS", "describe_measurement", "noncentrality",
-           "questions", "recommend", "recommendation_text"]
+           "pair_question", "questions", "recommend", "recommendation_text"]
 
 #: Columns of ``recommendations.csv`` (one row per question and option).
 RECOMMENDATION_COLUMNS = ("question", "kind", "step", "asked", "option", "quantity", "per", "extent", "available",
@@ -158,19 +158,10 @@ def questions(run, *, car_force_n: float | None = None) -> list[Question]:
     ``car_force_n`` (the force offset the car's declared uncertainty allows [N]), the car."""
     out: list[Question] = []
     for st in run.steps:
-        if st.verdict != "ambiguous":
-            continue
-        level = run.settings.level / len(st.candidates)
-        tests = {c.effect: c for c in st.candidates}
-        a, b = tests[st.effect], tests[st.runner_up]
-        if a.theta is None or b.theta is None:
-            continue
-        base = tuple(st.model_effects)
-        ma, mb = ((*base, a.effect), a.theta), ((*base, b.effect), b.theta)
-        ca, cb = CANDIDATES[a.effect], CANDIDATES[b.effect]
-        out.append(Question("ambiguous", st.step, f"{a.effect} or {b.effect}", (
-            Contrast(f"{a.effect} beyond {b.effect}", ma, mb, ca.n_shift, ca.n_spread),
-            Contrast(f"{b.effect} beyond {a.effect}", mb, ma, cb.n_shift, cb.n_spread)), level))
+        if st.verdict == "ambiguous":
+            q = pair_question(st, st.effect, st.runner_up, run.settings.level)
+            if q is not None:
+                out.append(q)
     last = run.steps[-1] if run.steps else None
     final = (tuple(run.final_problem.effects), np.asarray(run.final.theta, dtype=float))
     n_tests = len(last.candidates) if last is not None else len(run.settings.candidates)
@@ -192,6 +183,21 @@ def questions(run, *, car_force_n: float | None = None) -> list[Question]:
         out.append(Question("car", step, f"a measuring force {car_force_n:.2g} N off the declared one",
                             (_effect_at(final, "measuring_force_offset", 0, car_force_n, p.kind),), level))
     return out
+
+
+def pair_question(step, a: str, b: str, level: float) -> Question | None:
+    """Which of two candidates of a diagnosis step (:class:`.runner.DiagnosisStep`) the data hold:
+    M + ``a`` and M + ``b`` as the step fitted them, each a truth the other must be told from, at
+    the step's Bonferroni level (``level`` over its candidates). None when a refit is missing."""
+    tests = {c.effect: c for c in step.candidates}
+    if a not in tests or b not in tests or tests[a].theta is None or tests[b].theta is None:
+        return None
+    base = tuple(step.model_effects)
+    ma, mb = ((*base, a), tests[a].theta), ((*base, b), tests[b].theta)
+    ca, cb = CANDIDATES[a], CANDIDATES[b]
+    return Question("ambiguous", step.step, f"{a} or {b}", (
+        Contrast(f"{a} beyond {b}", ma, mb, ca.n_shift, ca.n_spread),
+        Contrast(f"{b} beyond {a}", mb, ma, cb.n_shift, cb.n_spread)), level / len(step.candidates))
 
 
 def _effect_at(final: tuple, effect: str, k: int, size: float, kind: str) -> Contrast:
