@@ -147,24 +147,26 @@ def _power_at(ctx, q, option, measurements, k) -> float:
 
 def _moderate(ctx, q, option, measurements, extent, level):
     """Settings and extent at which ``option`` is predicted to settle ``q`` with power ≈ 0.5: the
-    fewest units reaching 0.5, or, for a run or a line measurement, its accuracy scaled by the
-    factor (bisected on a log scale) giving 0.5. None when even one unit at the given accuracy
-    falls short of 0.5 or the power never reaches it."""
+    fewest units reaching 0.5, or — for a run or a line measurement, or an option short of 0.5
+    with every unit — every unit at its accuracy scaled by the factor (bisected on a log scale)
+    giving 0.5. None when no factor within 10⁻³–10⁴ gives it."""
     only = MeasurementSettings(measurements.accuracy, (option,))
     if option.per not in ("run", "line"):
         table = recommend(ctx, [q], only, extent, 0.5)
-        if not bool(table["enough"].iloc[0]):
-            return None, 0, 1.0
-        return only, int(table["extent"].iloc[0]), 1.0
+        if bool(table["enough"].iloc[0]):
+            return only, int(table["extent"].iloc[0]), 1.0
     acc = measurements.accuracy[option.quantity]
+    units = extent.available(option.per)
 
     def power(scale):
         scaled = MeasurementSettings({**measurements.accuracy,
                                       option.quantity: type(acc)(acc.std * scale, acc.common_std)}, (option,))
         return float(recommend(ctx, [q], scaled, extent, 0.999999)["power_full"].iloc[0]), scaled
 
-    lo, hi = 0.0, 4.0                        # log10 of the scale: power(10**lo) ≥ 0.5 > power(10**hi)
-    if power(1.0)[0] < 0.5 or power(10 ** hi)[0] >= 0.5:
+    # log10 of the accuracy's scale, every unit measured: power(10**lo) ≥ 0.5 > power(10**hi) — a
+    # coarser instrument where the option is more than enough, a finer one where it falls short
+    lo, hi = (0.0, 4.0) if power(1.0)[0] >= 0.5 else (-3.0, 0.0)
+    if power(10 ** lo)[0] < 0.5 or power(10 ** hi)[0] >= 0.5:
         return None, 0, 1.0
     for _ in range(14):
         mid = 0.5 * (lo + hi)
@@ -172,7 +174,7 @@ def _moderate(ctx, q, option, measurements, extent, level):
             lo = mid
         else:
             hi = mid
-    return power(10 ** lo)[1], 1, float(10 ** lo)
+    return power(10 ** lo)[1], units, float(10 ** lo)
 
 
 def main() -> None:
@@ -244,7 +246,7 @@ def main() -> None:
                 draws = [realised(run.context, c.truth, c, option, extent_m, q.level, moderate, args.moderate_replicates,
                                   5_000_000 + 1000 * seed + 100 * k, args.workers) for k, c in enumerate(q.contrasts)]
                 predicted = (float(recommend(run.context, [q], moderate, extent, 0.999999)["power_full"].iloc[0])
-                             if option.per in ("run", "line") else _power_at(run.context, q, option, moderate, extent_m))
+                             if scale != 1.0 else _power_at(run.context, q, option, moderate, extent_m))
                 got = min(p for p, _ in draws)
                 ratio_m = got / predicted if predicted > 0 else float("nan")
                 row_m = {"scenario": f"{name}_moderate", "draw": seed, "question": q.asked, "kind": q.kind,
