@@ -17,7 +17,11 @@ Snakemake, then
 * the diagnosis over replicate data sets at the level of W (``pytest -m validation``: 20 null
   replicates, single effects and a pair; 40 null lines of the per-span check),
 * the per-span check on effects no catalogue lists (``o_*``) and on the null campaigns
-  (``open_world_check.py``: ``results/validation/open_world*.csv``).
+  (``open_world_check.py``: ``results/validation/open_world*.csv``),
+* the campaigns with measurements besides the height (``c_*``, ``channels_check.py``:
+  ``results/validation/channels.csv``) and each recommendation's predicted power against the
+  power realised by simulating its measurement (``recommendation_power.py``:
+  ``results/validation/recommendation_power.csv``).
 
 Wall times go to ``results/benchmarks.json``: one per campaign (``validate_<name>_s``), the
 replicate tests (``validate_replicates_s``) and, on a run of everything, the whole
@@ -59,6 +63,14 @@ REFUSED = ("r_off",)
 #: and the maintenance list against the truth; ``o_plugin`` diagnoses o_local's recording with a
 #: user's own effect (after o_local: it reads that recording).
 OPEN_WORLD = ("o_local", "o_section", "o_plugin")
+#: Measurements besides the height (issue [17]): a wear/T_MW ambiguity without and with the wear
+#: channel, a null line with every channel and survey, a car 3 N off without and with its force
+#: calibrated (``channels_check.py``); and, on a run of everything, each recommendation's predicted
+#: power against the power realised by simulating its measurement (``recommendation_power.py``).
+CHANNELS = ("c_ambiguous", "c_ambiguous_wear", "c_null", "c_car", "c_car_calibrated")
+#: Two runs of one line declared at 36 and 60 N, each corrected at its own force: how far their W
+#: agree (repeatability against ``r_two_runs_same``'s).
+TWO_FORCES = "c_two_forces"
 
 
 def campaigns() -> list[str]:
@@ -78,6 +90,8 @@ def targets(name: str) -> list[str]:
     if name in MAINTENANCE:
         return [f"{folder}/validation/maintenance_check.csv", f"{folder}/validation/correction_check.csv",
                 f"{folder}/validation/identification_check.csv", f"{folder}/N2/maintenance/repair_summary.csv"]
+    if name == TWO_FORCES:
+        return [f"{folder}/validation/repeatability_check.csv", f"{folder}/validation/correction_check.csv"]
     if name in RECORDING:
         out = [f"{folder}/validation/projection_round_trip.csv", f"{folder}/validation/registration_check.csv",
                f"{folder}/validation/span_accuracy.csv"]
@@ -180,9 +194,15 @@ def main() -> None:
         run([sys.executable, "benchmarks/validation_table.py"])
     if not args.names or any(n in OPEN_WORLD for n in names):
         run([sys.executable, "benchmarks/open_world_check.py"])
+    if all(n in names for n in CHANNELS):
+        run([sys.executable, "benchmarks/channels_check.py"])
+    if not args.names:
+        start = time.perf_counter()
+        run([sys.executable, "benchmarks/recommendation_power.py"])
+        times["validate_recommendation_power_s"] = time.perf_counter() - start
     rows = []
     out = None
-    for name in (n for n in names if n not in RECORDING and n not in MAINTENANCE and n != "o_plugin"):
+    for name in (n for n in names if n not in RECORDING and n not in MAINTENANCE and n not in ("o_plugin", TWO_FORCES)):
         folder = ROOT / ("results" if name == "default" else f"results/validate/{name}")
         rows.append(pd.read_csv(folder / "validation" / "diagnosis_check.csv"))
     if rows:                       # campaigns with a diagnosis among those run

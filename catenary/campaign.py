@@ -17,6 +17,8 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
+from .channels.quantities import QUANTITIES, observe
+from .channels.survey import SURVEY_COLUMNS
 from .config import Catenary
 from .measuring import measuring_pass
 from .pantograph import Pantograph
@@ -99,8 +101,11 @@ def simulate_section(line: Line, k: int, catenary: Catenary, pantograph: Pantogr
     mast_index = np.concatenate([line.spans["left_mast"][spans], [line.spans["left_mast"][spans[-1]] + 1]])
     base = [line_seed(line), seed, k]
     parts, runs_rows, first_dynamic = [], [], None
+    wear = _thickness_of_spans(line, spans, catenary) if measurement.wear_channel is not None else None
     for run in measurement.runs:
         extra = {}
+        declared = measurement.force_n if run.force_n is None else run.force_n
+        run_force = force + (declared - measurement.force_n)      # the car's error holds at every setting
         speed_kmh = np.full(grid.size, measurement.speed_kmh)
         if run.direction != 1:
             extra["direction"] = run.direction
@@ -113,10 +118,11 @@ def simulate_section(line: Line, k: int, catenary: Catenary, pantograph: Pantogr
             knots = np.arange(masts_x[0], masts_x[-1] + FORCE_KNOT_SPACING_M, FORCE_KNOT_SPACING_M)
             extra["force_profile"] = (knots, smooth_profile(knots + offset, run.force_variation.std,
                                                             run.force_variation.length_m, run.stream(base[0], seed, 2)))
-        heights = measuring_pass(section, catenary, pantograph.with_static_force(force),
-                                 speed_m_s=measurement.speed_kmh / 3.6, mode=measurement.mode,
-                                 time_step_s=measurement.time_step_s, chainage_m=np.concatenate([grid, exact]),
-                                 **extra).height_m
+        passed = measuring_pass(section, catenary, pantograph.with_static_force(run_force),
+                                speed_m_s=measurement.speed_kmh / 3.6, mode=measurement.mode,
+                                time_step_s=measurement.time_step_s, chainage_m=np.concatenate([grid, exact]),
+                                **extra)
+        heights = passed.height_m
         clean, at_exact = heights[:grid.size], heights[grid.size:]
         dynamic_w = deflections_from_heights(section, at_exact[:n_d], at_exact[n_d:])
         first_dynamic = dynamic_w if first_dynamic is None else first_dynamic
@@ -132,8 +138,11 @@ def simulate_section(line: Line, k: int, catenary: Catenary, pantograph: Pantogr
         start = line_x.min() if run.direction == 1 else line_x.max()
         drift_seed = run.stream(base[0], seed, 3)
         chainage = run.odometer.recorded(grid + offset, start, drift_seed) if not run.odometer.exact else grid + offset
+        thickness, contact = _channels(measurement, run, grid, masts_x, wear, passed.contact_force_n[:grid.size],
+                                       base, seed, k)
         part = pd.DataFrame({"chainage_m": chainage, "height_m": recorded, "speed_kmh": speed_kmh,
-                             "force_n": np.full(grid.size, measurement.force_n), "stagger_m": stagger,
+                             "force_n": np.full(grid.size, declared), "stagger_m": stagger,
+                             "cw_residual_thickness_m": thickness, "contact_force_n": contact,
                              "run_id": np.full(grid.size, run.run_id), "direction": np.full(grid.size, run.direction)})
         parts.append(part.iloc[::run.direction].reset_index(drop=True))
         ends = run.odometer.recorded(masts_x + offset, start, drift_seed)
@@ -145,6 +154,70 @@ def simulate_section(line: Line, k: int, catenary: Catenary, pantograph: Pantogr
         runs_rows.append(pd.DataFrame(rows))
     truth = _truth_rows(line, spans, section, offset, static_w, first_dynamic, force)
     return pd.concat(parts, ignore_index=True), truth, pd.concat(runs_rows, ignore_index=True)
+
+
+def _thickness_of_spans(line: Line, spans: np.ndarray, catenary: Catenary) -> np.ndarray:
+    """True residual thickness of each span's CW [m] (:mod:`catenary.channels.quantities`)."""
+    return observe(line.params, catenary, ("cw_residual_thickness_m",))[spans, 0]
+
+
+def _channels(measurement: Measurement, run: RunSpec, grid: np.ndarray, masts_x: np.ndarray,
+              thickness_m: np.ndarray | None, contact_force_n: np.ndarray, base: list[int], seed: int, k: int):
+    """The wear and contact-force channels of one run over one section (NaN where not recorded):
+    each span's true thickness with its error in this run, the run's calibration bias (one draw
+    per run, shared by every section) and each sample's noise; the simulated contact force with
+    the run's bias and each sample's noise."""
+    nan = np.full(grid.size, np.nan)
+    thickness, contact = nan, nan.copy()
+    bias = np.random.default_rng(run.stream(base[0], 11)).standard_normal(2)        # the run's calibrations
+    rng = np.random.default_rng(run.stream(base[0], seed, k, 12))
+    if measurement.wear_channel is not None:
+        c = measurement.wear_channel
+        span = np.clip(np.searchsorted(masts_x, grid, side="right") - 1, 0, masts_x.size - 2)
+        per_span = thickness_m + c.span_std_m * rng.standard_normal(thickness_m.size)
+        thickness = (per_span[span] + c.run_bias_std_m * bias[0] + c.noise_std_m * rng.standard_normal(grid.size))
+        if c.quantisation_m > 0:
+            thickness = np.round(thickness / c.quantisation_m) * c.quantisation_m
+    if measurement.force_channel is not None:
+        c = measurement.force_channel
+        contact = contact_force_n + c.run_bias_std_n * bias[1] + c.noise_std_n * rng.standard_normal(grid.size)
+    return thickness, contact
+
+
+def campaign_survey(line: Line, spec: TruthSpec, catenary: Catenary) -> pd.DataFrame:
+    """What the campaign's crew measures (``spec.survey``), in the survey file's format
+    (:data:`catenary.channels.survey.SURVEY_COLUMNS`): each quantity's true value
+    (:mod:`catenary.channels.quantities`) at ``count`` places evenly spread along the line, plus
+    its error and the instrument's calibration error (one draw per item), seeded by the truth."""
+    rows = []
+    rng = np.random.default_rng([spec.seed, 31])
+    first_of_section = np.r_[True, line.params.section_index[1:] != line.params.section_index[:-1]]
+    for item in spec.survey:
+        place = QUANTITIES[item.quantity].place
+        values = observe(line.params, catenary, (item.quantity,))
+        if place == "span":
+            where = pd.DataFrame({"span_id": line.spans["span_id"], "value": values[:, 0]})
+        elif place == "section":
+            where = pd.DataFrame({"section_id": line.spans["section_id"][first_of_section],
+                                  "value": values[first_of_section, 0]})
+        elif place == "mast":
+            last = np.r_[first_of_section[1:], True]                     # a section's last span: its right mast
+            masts = np.r_[line.spans["left_mast"], line.spans["left_mast"][last] + 1]
+            value = np.r_[values[:, 0], values[last, 1]]
+            order = np.argsort(masts, kind="stable")
+            where = pd.DataFrame({"mast_id": line.masts["mast_id"][masts[order]], "value": value[order]})
+        else:
+            where = pd.DataFrame({"value": values[:1, 0]})
+        n = len(where) if item.count is None else min(item.count, len(where))
+        pick = np.unique(np.round(np.linspace(0, len(where) - 1, n)).astype(int)) if n < len(where) else np.arange(n)
+        where = where.iloc[pick].reset_index(drop=True)
+        bias = item.common_std * rng.standard_normal()
+        where["value"] = where["value"] + bias + item.std * rng.standard_normal(len(where))
+        where["quantity"] = item.quantity
+        where["std"] = item.std
+        rows.append(where)
+    table = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+    return table.reindex(columns=list(SURVEY_COLUMNS))
 
 
 def _run_speed_kmh(x_m: np.ndarray, measurement: Measurement, run: RunSpec, base: list[int]) -> np.ndarray:

@@ -28,10 +28,18 @@ class Wire:
         Linear mass [kg/m].
     bending_stiffness_n_m2 : float
         Bending stiffness EI [N·m²].
+    diameter_m : float or None
+        Nominal diameter of the unworn wire [m] (EN 50149 gives it for each grooved profile);
+        with ``section_area_m2``, what turns a measured residual thickness into the fraction of
+        the section lost by wear (:mod:`catenary.channels.wear`). None: not given.
+    section_area_m2 : float or None
+        Cross-section of the unworn wire [m²] (its nominal section, e.g. 150 mm²).
     """
 
     mass_per_length_kg_m: float
     bending_stiffness_n_m2: float
+    diameter_m: float | None = None
+    section_area_m2: float | None = None
 
 
 @dataclass(frozen=True)
@@ -201,8 +209,15 @@ def catenary_from_dict(raw: Mapping[str, Any], where: str = "catenary") -> Caten
     wires = raw["wires"]
 
     def wire(key: str) -> Wire:
-        return Wire(mass_per_length_kg_m=float(wires[key]["mass_per_length_kg_m"]),
-                    bending_stiffness_n_m2=float(wires[key]["bending_stiffness_n_m2"]))
+        w = wires[key]
+        diameter, area = w.get("diameter_m"), w.get("section_area_m2")
+        if diameter is not None and area is not None and not area < np.pi * diameter ** 2 / 4:
+            raise ConfigError(f"{where}.wires.{key}: section_area_m2 {area:g} m² must be smaller than the circle of "
+                              f"diameter_m {diameter:g} m ({np.pi * diameter ** 2 / 4:g} m²): the grooves are not worn")
+        return Wire(mass_per_length_kg_m=float(w["mass_per_length_kg_m"]),
+                    bending_stiffness_n_m2=float(w["bending_stiffness_n_m2"]),
+                    diameter_m=None if diameter is None else float(diameter),
+                    section_area_m2=None if area is None else float(area))
 
     d = raw["droppers"]
     droppers = Droppers(

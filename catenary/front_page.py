@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .diagnosis.recommend import describe_measurement
+
 # Snakemake renders the page with Jinja before docutils: no text of ours may hold Jinja markup.
 _JINJA = ("{{", "}}", "{%", "%}", "{#", "#}")
 
@@ -134,16 +136,54 @@ def diagnosis_lines(findings: pd.DataFrame | None) -> list[str]:
             sizes = ", ".join(f"{k} = {_number(v[0])} ± {_number(v[1], 2)}" for k, v in params.items())
             text = (f"step {r.step}: **{r.effect}** named (p = {_number(r.p_value, 2)}, runner-up {r.runner_up}"
                     f"{'; ' + sizes if sizes else ''})")
-            if str(getattr(r, "correction_model_alike", False)).lower() == "true":
-                text += (" — but it could equally be the correction's model of the measuring car (its shift of the "
-                         "mean W is within the model-error budget): check the car before acting on it")
         elif r.verdict == "ambiguous":
             text = (f"step {r.step}: ambiguous between **{r.effect}** and **{r.runner_up}** "
                     f"(p = {_number(r.p_value, 2)}): the data cannot tell them apart")
+            measurement = getattr(r, "recommended_measurement", "")
+            if isinstance(measurement, str) and measurement:
+                text += f"; to settle it, measure the {measurement}"
         else:
             text = f"step {r.step}: no missing effect detected"
         lines.append(f"- {text}")
     return lines + [""]
+
+
+def next_measurement_lines(recommendations: pd.DataFrame | None) -> list[str]:
+    """How many candidates W cannot see at their realistic size, and how many of them a listed
+    measurement would settle (each with its measurement in the diagnosis summary; ambiguous
+    steps carry theirs in :func:`diagnosis_lines`; the car is :func:`car_lines`)."""
+    if recommendations is None or recommendations.empty:
+        return []
+    chosen = recommendations[recommendations["recommended"].astype(str).str.lower() == "true"]
+    hidden = chosen[chosen["kind"] == "undetectable"]
+    if not len(hidden):
+        return []
+    settled = hidden[hidden["enough"].astype(str).str.lower() == "true"]
+    return [f"**Undetectable at a realistic size with the height alone:** {len(hidden)} candidate "
+            f"magnitude(s); {len(settled)} of them a listed measurement would settle (*6 Diagnosis* › "
+            "summary, *What to measure next*).", ""]
+
+
+def car_lines(recommendations: dict[str, pd.DataFrame | None] | None) -> list[str]:
+    """The measuring car's caveat, said once for the whole page (the car is the same for every
+    span type), with the measurement that settles it and its predicted power per type."""
+    rows = []
+    for span_type, table in (recommendations or {}).items():
+        if table is None or table.empty:
+            continue
+        chosen = table[(table["recommended"].astype(str).str.lower() == "true") & (table["kind"] == "car")]
+        rows += [(span_type, r) for r in chosen.to_dict("records")]
+    if not rows:
+        return []
+    first = rows[0][1]
+    powers = ", ".join(f"{float(r['power'] if str(r['enough']).lower() == 'true' else r['power_full']):.2f} on "
+                       f"{span_type}" for span_type, r in rows)
+    what = describe_measurement(first["quantity"], first["per"], int(first["extent"]), float(first["cost_h"]))
+    return _heading("The measuring car", "-") + [
+        f"W alone cannot tell {first['question']} (the model-error budget's 95 % bound) from the catenary: the "
+        "free means absorb the uplift it leaves in every span. This concerns every finding alike, none in "
+        "particular; the 95 % total intervals above hold what it would move. To settle it: "
+        f"{what}, predicted power {powers} (diagnosis summary, *What to measure next*).", ""]
 
 
 def unexplained_lines(spans: pd.DataFrame | None, sections: pd.DataFrame | None) -> list[str]:
@@ -177,7 +217,8 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
                s_opt: dict[str, pd.DataFrame], findings: dict[str, pd.DataFrame | None],
                model_error: dict[str, pd.DataFrame | None] | None = None,
                sections: pd.DataFrame | None = None, prior_std_m: float = float("nan"),
-               checks: dict[str, tuple[pd.DataFrame, pd.DataFrame] | None] | None = None) -> str:
+               checks: dict[str, tuple[pd.DataFrame, pd.DataFrame] | None] | None = None,
+               recommendations: dict[str, pd.DataFrame | None] | None = None) -> str:
     """The report's front page (reStructuredText).
 
     Parameters
@@ -197,6 +238,8 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
         The configured ``registration.mast_table_std_m`` [m].
     checks : dict, optional
         Per span type: its ``diagnosis/spans.csv`` and ``sections.csv`` (None: not run).
+    recommendations : dict, optional
+        Per span type: its ``diagnosis/recommendations.csv`` (None: not run).
     """
     lines = [intro.rstrip(), ""]
     lines += _heading("Summary per span type", "-")
@@ -211,7 +254,9 @@ def front_page(intro: str, spans_report: pd.DataFrame, correction_summary: pd.Da
         lines += correction_lines(correction_summary, span_type)
         lines += identification_lines(s_opt[span_type], (model_error or {}).get(span_type))
         lines += diagnosis_lines(findings.get(span_type))
+        lines += next_measurement_lines((recommendations or {}).get(span_type))
         lines += unexplained_lines(*((checks or {}).get(span_type) or (None, None)))
+    lines += car_lines(recommendations)
     text = "\n".join(lines) + "\n"
     for mark in _JINJA:
         text = text.replace(mark, " ".join(mark))
@@ -223,7 +268,8 @@ def write_front_page(path: str | Path, intro_path: str | Path, spans_report_path
                      findings_paths: dict[str, str | None],
                      model_error_paths: dict[str, str | None] | None = None,
                      sections_path: str | Path | None = None, prior_std_m: float = float("nan"),
-                     check_paths: dict[str, tuple[str, str] | None] | None = None) -> Path:
+                     check_paths: dict[str, tuple[str, str] | None] | None = None,
+                     recommendation_paths: dict[str, str | None] | None = None) -> Path:
     """Read the pipeline's outputs, write :func:`front_page` to ``path``."""
     text = front_page(
         Path(intro_path).read_text(encoding="utf-8"),
@@ -239,6 +285,7 @@ def write_front_page(path: str | Path, intro_path: str | Path, spans_report_path
                           keep_default_na=False, na_values={c: [""] for c in ("peak_chainage_m", "peak_size_mm")}),
               pd.read_csv(p[1], dtype={"section_id": str})) if p else None)
          for t, p in (check_paths or {}).items()},
+        {t: (pd.read_csv(p) if p else None) for t, p in (recommendation_paths or {}).items()},
     )
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -97,6 +97,10 @@ line order."""
 PROFILE_COLUMNS = ("span_id", "run_id", "x_m", "height_m")
 QUALITY_COLUMNS = ("fit_rms_m", "min_samples_per_point", "outliers_removed", "max_gap_m", "cut_shift_m",
                    "w_support_std_m", "w_noise_std_m")
+#: What the recording's other channels say of each span (NaN where the recording has none): the
+#: mean residual thickness of the CW and its standard error over the span's samples, and the mean
+#: measured contact force (:mod:`catenary.channels`).
+CHANNEL_COLUMNS = ("cw_residual_thickness_m", "cw_residual_thickness_se_m", "contact_force_n")
 RUN_COLUMNS = ("run_id", "direction", "speed_kmh", "force_n")
 #: Margin of the section-wide check of the cuts (module docs, step 5a) on a height trace [m]. Its
 #: line is read from the kink signals' comb on a 0.05 m grid and carries the dynamic lag's bias,
@@ -558,6 +562,8 @@ class _Frame:
     speed_kmh: np.ndarray
     force_n: np.ndarray
     rows: np.ndarray                 # row of each sample in the recording file (0-based)
+    thickness_m: np.ndarray          # the wear channel's residual thickness (NaN: none)
+    contact_force_n: np.ndarray      # the measured contact force (NaN: none)
 
     @property
     def chainage_m(self) -> np.ndarray:
@@ -581,7 +587,8 @@ def _section_samples(samples: pd.DataFrame, chainage_map: ChainageMap | None, ru
     height = samples["height_m"].to_numpy(dtype=float)
     trace = trace_of(x, height, stagger if np.isfinite(stagger).any() else None)
     return _Frame(trace, height, samples["speed_kmh"].to_numpy(dtype=float), samples["force_n"].to_numpy(dtype=float),
-                  samples["row"].to_numpy(dtype=int))
+                  samples["row"].to_numpy(dtype=int), samples["cw_residual_thickness_m"].to_numpy(dtype=float),
+                  samples["contact_force_n"].to_numpy(dtype=float))
 
 
 def _project_span(span: _Span, frame: _Frame, direction: int, catenary: Catenary, settings: ProjectionSettings,
@@ -679,6 +686,12 @@ def _project_span(span: _Span, frame: _Frame, direction: int, catenary: Catenary
         "max_gap_m": gap_max, "cut_shift_m": shift,
         "w_support_std_m": support_error, "w_noise_std_m": _noise_w_error(fits, where),
     })
+    thickness = frame.thickness_m[inside][np.isfinite(frame.thickness_m[inside])]
+    row.update({"cw_residual_thickness_m": float(thickness.mean()) if thickness.size else float("nan"),
+                "cw_residual_thickness_se_m": float(thickness.std(ddof=1) / np.sqrt(thickness.size))
+                if thickness.size > 1 else float("nan"),
+                "contact_force_n": float(np.nanmean(frame.contact_force_n[inside]))
+                if np.isfinite(frame.contact_force_n[inside]).any() else float("nan")})
     xs, hs = frame.trace.window(a, b)
     profile = pd.DataFrame({"span_id": span.span_id, "run_id": span.run_id, "x_m": xs - a, "height_m": hs})
     return _Outcome(st, reasons, row, profile)
@@ -795,7 +808,7 @@ def spans_columns(n_droppers: int) -> list[str]:
     """Column names of ``results/{span_type}/spans.parquet`` for a type with ``n_droppers`` droppers."""
     return (["span_id", *RUN_COLUMNS, "section_id", "left_mast_id", "right_mast_id", "start_chainage_m",
              "end_chainage_m", "length_m", "cw_height_left_m", "cw_height_right_m"]
-            + [f"w{i + 1}_m" for i in range(n_droppers)] + list(QUALITY_COLUMNS))
+            + [f"w{i + 1}_m" for i in range(n_droppers)] + list(QUALITY_COLUMNS) + list(CHANNEL_COLUMNS))
 
 
 def spans_schema(n_droppers: int) -> pa.Schema:
@@ -812,7 +825,7 @@ def spans_schema(n_droppers: int) -> pa.Schema:
 
 
 #: Columns that may be NaN: what the recording did not give, a check not made.
-_NULLABLE = ("speed_kmh", "force_n", "cut_shift_m", "w_support_std_m")
+_NULLABLE = ("speed_kmh", "force_n", "cut_shift_m", "w_support_std_m", *CHANNEL_COLUMNS)
 _TEXT_COLUMNS = ("span_id", "run_id", "section_id", "left_mast_id", "right_mast_id")
 _INT_COLUMNS = ("direction", "min_samples_per_point", "outliers_removed")
 

@@ -10,9 +10,16 @@ chainage_m yes      position along the line [m] as the car's odometer gives it, 
                     order: the direction of travel)
 height_m   yes      CW height above rail at the pantograph [m]; empty / NaN = drop-out
 speed_kmh  no       train speed [km/h]
-force_n    no       contact force of the measuring pantograph [N]
+force_n    no       static force the measuring pantograph is set to push [N] (the declared
+                    force the correction models)
 stagger_m  no       lateral position of the contact point [m] (the stagger; it reverses at
                     every steady arm, which the registration uses to find the supports)
+cw_residual_thickness_m
+           no       residual thickness of the CW from the car's wear channel [m], within
+                    (0, 0.03] m
+contact_force_n
+           no       contact force the head's load cells measure [N], within [−50, 500] N
+                    (its mean over a run is the force the car really pushes)
 run_id     no       text label of the measuring run; the rows of a run are consecutive.
                     Absent: the whole file is one run, named after the file
 direction  no       +1 (travel towards increasing chainage) or -1, one value per run;
@@ -73,7 +80,8 @@ from .errors import InputError
 from .parquet import read_table, write_table
 
 RECORDING_REQUIRED = ("chainage_m", "height_m")
-RECORDING_OPTIONAL = ("speed_kmh", "force_n", "stagger_m", "run_id", "direction")
+RECORDING_OPTIONAL = ("speed_kmh", "force_n", "stagger_m", "cw_residual_thickness_m", "contact_force_n", "run_id",
+                      "direction")
 MASTS_REQUIRED = ("mast_id", "chainage_m", "section_id")
 MASTS_OPTIONAL = ("span_type", "cw_height_m")
 
@@ -83,6 +91,10 @@ HEIGHT_RANGE_M = (0.0, 20.0)
 """Plausible CW heights above rail [m]; a median above the upper bound means millimetres."""
 STAGGER_LIMIT_M = 1.0
 """Largest plausible |stagger| [m] (a real stagger is 0.2–0.4 m); beyond it: millimetres."""
+THICKNESS_LIMIT_M = 0.03
+"""Largest plausible residual thickness of a CW [m] (AC-150 is 14.8 mm new); beyond it: millimetres."""
+CONTACT_FORCE_RANGE_N = (-50.0, 500.0)
+"""Plausible measured contact forces [N] (dynamic, a measuring pantograph pushes 36–120 N static)."""
 
 RECORDING_SCHEMA = pa.schema([
     pa.field("chainage_m", pa.float64(), nullable=False),
@@ -90,6 +102,8 @@ RECORDING_SCHEMA = pa.schema([
     pa.field("speed_kmh", pa.float64()),
     pa.field("force_n", pa.float64()),
     pa.field("stagger_m", pa.float64()),
+    pa.field("cw_residual_thickness_m", pa.float64()),
+    pa.field("contact_force_n", pa.float64()),
     pa.field("run_id", pa.string(), nullable=False),
     pa.field("direction", pa.int64(), nullable=False),
 ])
@@ -478,16 +492,25 @@ def validate_recording(df: pd.DataFrame, source: str | None = None) -> pd.DataFr
                          "above rail [m]")
     _check_heights(height, "height_m", src)
     out = pd.DataFrame({"chainage_m": chainage, "height_m": height})
-    for column, expected in (("speed_kmh", "train speed [km/h]"), ("force_n", "contact force [N]"),
-                             ("stagger_m", "lateral position of the contact point [m]")):
+    for column, expected in (("speed_kmh", "train speed [km/h]"), ("force_n", "static force of the pantograph [N]"),
+                             ("stagger_m", "lateral position of the contact point [m]"),
+                             ("cw_residual_thickness_m", "residual thickness of the contact wire [m]"),
+                             ("contact_force_n", "measured contact force [N]")):
         out[column] = (_numeric(df, column, src, expected, allow_missing=True) if column in df.columns
                        else np.full(n, np.nan))
-    stagger = out["stagger_m"].to_numpy()
-    bad = np.flatnonzero(np.abs(np.nan_to_num(stagger)) > STAGGER_LIMIT_M)
-    if bad.size:
-        i = int(bad[0])
-        raise InputError(f"{src}: {row_label(i, src)}, column 'stagger_m': {stagger[i]:g} m; expected the lateral "
-                         f"position of the contact point in metres, within ±{STAGGER_LIMIT_M:g} m (millimetres?)")
+    for column, low, high, unit, what in (
+            ("stagger_m", -STAGGER_LIMIT_M, STAGGER_LIMIT_M, "m",
+             f"the lateral position of the contact point in metres, within ±{STAGGER_LIMIT_M:g} m (millimetres?)"),
+            ("cw_residual_thickness_m", 0.0, THICKNESS_LIMIT_M, "m",
+             f"the wire's residual thickness in metres, in (0, {THICKNESS_LIMIT_M:g}] m (millimetres?)"),
+            ("contact_force_n", *CONTACT_FORCE_RANGE_N, "N",
+             f"a contact force in newtons within [{CONTACT_FORCE_RANGE_N[0]:g}, {CONTACT_FORCE_RANGE_N[1]:g}] N")):
+        values = out[column].to_numpy()
+        bad = np.flatnonzero(np.isfinite(values) & ((values < low) | (values > high)
+                                                    | ((values <= low) & (column == "cw_residual_thickness_m"))))
+        if bad.size:
+            i = int(bad[0])
+            raise InputError(f"{src}: {row_label(i, src)}, column '{column}': {values[i]:g} {unit}; expected {what}")
     out["run_id"] = run_id.to_numpy(dtype=object)
     out["run_id"] = out["run_id"].astype("str")
     out["direction"] = direction

@@ -33,7 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-__all__ = ["MastTableErrors", "Odometer", "RunSpec", "StaggerSpec", "Variation", "mast_stagger",
+__all__ = ["ForceChannel", "MastTableErrors", "Odometer", "RunSpec", "StaggerSpec", "Variation", "WearChannel",
+           "mast_stagger",
            "mast_table_with_errors", "sensor", "smooth_profile", "stagger_at"]
 
 #: Random Fourier features of a smooth profile (squared-exponential covariance).
@@ -131,6 +132,9 @@ class RunSpec:
         Around the measurement's ``speed_kmh`` [km/h].
     force_variation : Variation
         Fluctuation of the regulated uplift force around its static value [N].
+    force_n : float or None
+        Static force the car is set to for this run [N] (declared as such in the recording's
+        ``force_n``); None: the measurement's.
     """
 
     run_id: str = "campaign"
@@ -139,10 +143,32 @@ class RunSpec:
     odometer: Odometer = Odometer()
     speed_variation: Variation = Variation()
     force_variation: Variation = Variation()
+    force_n: float | None = None
 
     def stream(self, *key: int) -> list[int]:
         """Seed of one of the run's random streams, ``key`` naming the purpose."""
         return [*key] if self.seed is None else [*key, 7919, int(self.seed)]
+
+
+@dataclass(frozen=True)
+class WearChannel:
+    """The car's wear channel: the CW's residual thickness, read with ``noise_std_m`` per sample,
+    an error ``span_std_m`` of each span's reading in each run (the sensor's local response) and
+    one ``run_bias_std_m`` per run (its calibration), quantised to ``quantisation_m`` [m]."""
+
+    noise_std_m: float = 9.0e-5
+    span_std_m: float = 3.0e-5
+    run_bias_std_m: float = 9.0e-5
+    quantisation_m: float = 1.0e-5
+
+
+@dataclass(frozen=True)
+class ForceChannel:
+    """The car's contact-force channel: the simulated contact force read with ``noise_std_n`` per
+    sample and one ``run_bias_std_n`` per run (the load cells' calibration) [N]."""
+
+    noise_std_n: float = 5.0
+    run_bias_std_n: float = 1.0
 
 
 @dataclass(frozen=True)

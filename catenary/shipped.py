@@ -27,7 +27,7 @@ __all__ = ["FILES", "MANIFEST", "SOURCES", "copy_out", "file_digest", "matches",
 
 #: The campaign's outputs that the copy holds (rule ``campaign`` writes them, and the CSV of the
 #: recording, which the copy's rule writes from the Parquet file).
-FILES = ("recording.parquet", "masts.csv", "masts_truth.csv", "truth.parquet", "truth_runs.parquet")
+FILES = ("recording.parquet", "masts.csv", "masts_truth.csv", "truth.parquet", "truth_runs.parquet", "survey.csv")
 
 #: The manifest's name in the copy's folder.
 MANIFEST = "manifest.json"

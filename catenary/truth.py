@@ -25,7 +25,7 @@ from .config import Catenary
 from .dropper_table import nominal_dropper_lengths
 from .effects import EFFECTS, SpanParameters, load_modules, plant
 from .errors import ConfigError
-from .recording_car import MastTableErrors, Odometer, RunSpec, StaggerSpec, Variation
+from .recording_car import ForceChannel, MastTableErrors, Odometer, RunSpec, StaggerSpec, Variation, WearChannel
 from .schema import check
 
 
@@ -64,7 +64,9 @@ class Measurement:
     mode ("dynamic" or "quasi_static"), time_step_s [s], runs (the car's runs,
     :class:`~catenary.recording_car.RunSpec`; default one run towards increasing chainage with
     an exact odometer), stagger (:class:`~catenary.recording_car.StaggerSpec` or None: the
-    stagger is not recorded).
+    stagger is not recorded), wear_channel and force_channel (the residual thickness and the
+    contact force the car records, :class:`~catenary.recording_car.WearChannel`,
+    :class:`~catenary.recording_car.ForceChannel`; None: not recorded).
     """
 
     pantograph: str
@@ -81,6 +83,20 @@ class Measurement:
     time_step_s: float
     runs: tuple[RunSpec, ...] = (RunSpec(),)
     stagger: StaggerSpec | None = None
+    wear_channel: WearChannel | None = None
+    force_channel: ForceChannel | None = None
+
+
+@dataclass(frozen=True)
+class SurveySpec:
+    """What a crew measures: ``quantity`` (:data:`catenary.channels.quantities.QUANTITIES`) at
+    ``count`` places evenly spread along the line (None: all), each with standard uncertainty
+    ``std`` and an error ``common_std`` all share [SI]."""
+
+    quantity: str
+    count: int | None
+    std: float
+    common_std: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -100,6 +116,7 @@ class TruthSpec:
     measurement: Measurement
     raw: dict = field(repr=False, default_factory=dict)
     mast_table: MastTableErrors | None = None
+    survey: tuple[SurveySpec, ...] = ()
 
 
 def _law(raw: Mapping[str, Any]) -> Law:
@@ -122,7 +139,8 @@ def _runs(raw: list | None, where: str) -> tuple[RunSpec, ...]:
                             odometer=Odometer(float(o.get("offset_m", 0.0)), float(o.get("scale", 1.0)),
                                               _variation(o.get("drift"))),
                             speed_variation=_variation(r.get("speed_variation")),
-                            force_variation=_variation(r.get("force_variation"))))
+                            force_variation=_variation(r.get("force_variation")),
+                            force_n=None if r.get("force_n") is None else float(r["force_n"])))
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):
         raise ConfigError(f"{where}.measurement.runs: run ids must be unique, got {ids}")
@@ -195,17 +213,24 @@ def truth_from_dict(raw: Mapping[str, Any], catenary: Catenary, where: str = "ca
         dropout_length_m=float(m["dropout_length_m"]), spike_rate_per_km=float(m["spike_rate_per_km"]),
         spike_height_m=float(m["spike_height_m"]), mode=str(m["mode"]), time_step_s=float(m["time_step_s"]),
         runs=_runs(m.get("runs"), where),
-        stagger=StaggerSpec(**{k: float(v) for k, v in m["stagger"].items()}) if m.get("stagger") else None)
+        stagger=StaggerSpec(**{k: float(v) for k, v in m["stagger"].items()}) if m.get("stagger") else None,
+        wear_channel=WearChannel(**{k: float(v) for k, v in m["wear_channel"].items()})
+        if m.get("wear_channel") is not None else None,
+        force_channel=ForceChannel(**{k: float(v) for k, v in m["force_channel"].items()})
+        if m.get("force_channel") is not None else None)
     table = raw.get("mast_table")
     mast_table = (MastTableErrors(float(table.get("position_error_m", 0.0)), int(table.get("missing", 0)),
                                   int(table.get("extra", 0)), int(table.get("seed", raw["seed"])))
                   if table else None)
+    survey = tuple(SurveySpec(str(item["quantity"]), None if item.get("count", "all") == "all" else int(item["count"]),
+                              float(item["std"]), float(item.get("common_std", 0.0)))
+                   for item in raw.get("survey") or [])
     return TruthSpec(
         seed=int(raw["seed"]), sections=sections, section_gap_m=float(line.get("section_gap_m", 50.0)),
         span_length_jitter_m=float(line.get("span_length_jitter_m", 0.0)), cw_height=_law(line["cw_height_m"]),
         dropper_laws=dropper_laws, system_height=system_height, contact_tension=_law(raw["contact_tension_n"]),
         messenger_tension=messenger, hidden_effects=effects, measurement=measurement, raw=dict(raw),
-        mast_table=mast_table)
+        mast_table=mast_table, survey=survey)
 
 
 def load_truth(path: str | Path, catenary: Catenary) -> TruthSpec:

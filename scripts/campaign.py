@@ -2,7 +2,7 @@
 
 import pandas as pd
 
-from catenary.campaign import campaign_masts, gather_recording, truth_schema, write_recording_csv
+from catenary.campaign import campaign_masts, campaign_survey, gather_recording, truth_schema, write_recording_csv
 from catenary.config import load_catenary
 from catenary.logs import rule_logger
 from catenary.parquet import config_hash, read_table, write_table
@@ -18,11 +18,15 @@ truth = pd.concat([read_table(p) for p in snakemake.input.truths], ignore_index=
 truth_runs = pd.concat([read_table(p) for p in snakemake.input.truth_runs], ignore_index=True)
 write_table(recording, snakemake.output.recording, RECORDING_SCHEMA, config_hash=digest, kind="recording")
 write_recording_csv(recording, snakemake.output.recording_csv)
-masts, masts_truth = campaign_masts(draw_line(spec, catenary), spec)
+line = draw_line(spec, catenary)
+masts, masts_truth = campaign_masts(line, spec)
+survey = campaign_survey(line, spec, catenary)
+survey.to_csv(snakemake.output.survey, index=False, float_format="%.6g")
 masts.to_csv(snakemake.output.masts, index=False, float_format="%.4f")
 masts_truth.to_csv(snakemake.output.masts_truth, index=False, float_format="%.4f")
 write_table(truth, snakemake.output.truth, truth_schema(truth.columns), config_hash=digest, kind="truth")
 write_table(truth_runs, snakemake.output.truth_runs, truth_schema(truth_runs.columns), config_hash=digest,
             kind="truth_runs")
-log.info("campaign: %d samples in %d run(s), %d spans; mast table: %s", len(recording),
-         recording["run_id"].nunique(), len(truth), masts_truth["status"].value_counts().to_dict())
+log.info("campaign: %d samples in %d run(s), %d spans; mast table: %s; survey: %s", len(recording),
+         recording["run_id"].nunique(), len(truth), masts_truth["status"].value_counts().to_dict(),
+         survey["quantity"].value_counts().to_dict() or "none")

@@ -13,6 +13,7 @@ from catenary.blas import one_blas_thread
 one_blas_thread(override=True)
 
 import dataclasses  # noqa: E402
+import numpy as np  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from catenary.config import load_catenary  # noqa: E402
@@ -28,9 +29,11 @@ from catenary.identification.data import read_corrected, span_places  # noqa: E4
 from catenary.identification.settings import IdentificationSettings  # noqa: E402
 from catenary.logs import rule_logger  # noqa: E402
 from catenary.maintenance.settings import MaintenanceSettings  # noqa: E402
-from catenary.model_error.diagnosis import (BudgetSignatures, budget_signatures,  # noqa: E402
-                                            free_mean_directions, read_budget)
+from catenary.channels.assemble import read_observations  # noqa: E402
+from catenary.channels.settings import MeasurementSettings  # noqa: E402
+from catenary.diagnosis.recommend import Extent, questions, recommend  # noqa: E402
 from catenary.model_error.propagation import span_shifts  # noqa: E402
+from catenary.model_error.sources import ModelErrorSettings  # noqa: E402
 from catenary.pantograph import load_pantographs  # noqa: E402
 from catenary.parquet import read_table  # noqa: E402
 
@@ -55,6 +58,14 @@ pantograph = load_pantographs(snakemake.input.pantographs)[correction.pantograph
 measuring = measuring_pass_of(snakemake.input.corrected, span_type, catenary, pantograph, correction)
 log.info("measuring pass: %.1f km/h, declared force %.1f N; ∂W/∂F at the droppers %s mm/N", 3.6 * measuring.speed_m_s,
          measuring.force_n, " ".join(f"{1e3 * g:.3f}" for g in measuring.influence_m_n))
+measurements = MeasurementSettings.from_mapping(snakemake.params.measurements)
+observations, unused = read_observations(data.span_id, snakemake.input.spans,
+                                         snakemake.input.survey[0] if snakemake.input.survey else None,
+                                         measurements, measuring.force_n)
+data = dataclasses.replace(data, observations=None if observations.empty else observations)
+log.info("%s: measured besides W: %s; line: %s; %d survey rows not on this type's spans", span_type.name,
+         {q: int(np.isfinite(observations.values[:, i]).sum()) for i, q in enumerate(observations.columns)} or "nothing",
+         [f"{o.quantity} {o.value:.2f} ± {o.std:.2f}" for o in observations.line] or "nothing", len(unused))
 profile_check = profile_check_of(snakemake.input.corrected, snakemake.input.profiles, span_type, catenary, pantograph,
                                  correction, settings.span_check().profile, measuring.speed_m_s, measuring.force_n)
 profile, noise = profile_check.table, profile_check.noise
@@ -77,17 +88,25 @@ def fit_local(span_ids):
                                                       measuring.speed_m_s, correction.mode, correction.time_step_s))
 
 
-line = diagnose_line(span_type, catenary, data, span_places(read_table(snakemake.input.corrected), data.span_id),
+places = span_places(read_table(snakemake.input.corrected), data.span_id)
+line = diagnose_line(span_type, catenary, data, places,
                      identification, settings, profile=profile, extra_covariance_m2=extra,
                      span_effects=fit_local if local else None,
                      force_influence_m_n=measuring.influence_m_n, declared_force_n=measuring.force_n,
                      workers=snakemake.threads, n_left_out=len(data.left_out), log=log)
-budget = None
-if snakemake.params.model_error_enabled:
-    budget = BudgetSignatures(budget_signatures(read_budget(snakemake.input.model_error_budget), span_type.name),
-                              free_mean_directions(span_type, catenary, identification))
-    log.info("%s: named effects checked against the correction's model-error budget (%s)", span_type.name,
-             ", ".join(budget.sources) or "no source measured")
-write_line_diagnosis(line, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent), budget)
+# What to measure next: every question W alone leaves open, and the car — whether W can tell its force
+# from the declared one within the model-error budget's 95 % bound (two standard uncertainties).
+force_sources = [src for src in ModelErrorSettings.from_mapping(snakemake.params.model_error).sources
+                 if src.input == "force_n"]
+car_force_n = (2.0 * (force_sources[0].std or force_sources[0].relative_std * measuring.force_n)
+               if force_sources and snakemake.params.model_error_enabled else None)
+n_sections = max(int(places["section_id"].nunique()), 1)
+asked = questions(line.run, car_force_n=car_force_n)
+recommendations = recommend(line.run.context, asked, measurements,
+                            Extent(line.run.n_spans, n_sections, line.run.n_spans + n_sections), settings.power)
+for r in recommendations[recommendations["recommended"]].itertuples():
+    log.info("%s: %s — %s: measure %s on %d (%s; %.3g h), predicted power %.2f%s", span_type.name, r.kind, r.question,
+             r.quantity, r.extent, r.per, r.cost_h, r.power, "" if r.enough else " (not enough)")
+write_line_diagnosis(line, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent), recommendations)
 log.info("%s: named %s in %.0f s; %d spans unexplained", span_type.name, line.run.named or "nothing", line.run.time_s,
          line.check.n_unexplained)

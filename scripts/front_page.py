@@ -13,5 +13,6 @@ path = write_front_page(snakemake.output.front_page, snakemake.input.intro, snak
                         {t: inputs.get(f"model_error_{t}") for t in types}, snakemake.input.sections,
                         RegistrationSettings.from_mapping(snakemake.params.registration).mast_table_std_m,
                         {t: (inputs[f"spans_{t}"], inputs[f"sections_{t}"]) if f"spans_{t}" in inputs else None
-                         for t in types})
+                         for t in types},
+                        {t: inputs.get(f"recommendations_{t}") for t in types})
 log.info("front page for %s written to %s", ", ".join(types) or "no span type", path)

@@ -2,7 +2,10 @@
 
 from pathlib import Path
 
+from catenary.channels.assemble import IDENTIFIED_QUANTITIES, read_observations
+from catenary.channels.settings import MeasurementSettings
 from catenary.config import load_catenary
+from catenary.correction import CorrectionSettings
 from catenary.identification.outputs import IdentificationPaths, write_identification
 from catenary.identification.data import read_corrected
 from catenary.identification.runner import run_identification
@@ -22,6 +25,14 @@ data = read_corrected(snakemake.input.corrected, span_type, flagged)
 log.info("%s: %d converged spans used, %d left out", span_type.name, data.w_m.shape[0], len(data.left_out))
 for span_id, why in data.left_out:
     log.info("left out %s: %s", span_id, why)
+observations = None
+if settings.estimator == "gaussian":         # the quantities the identification's model gives, read with W
+    observations, _ = read_observations(data.span_id, snakemake.input.spans,
+                                        snakemake.input.survey[0] if snakemake.input.survey else None,
+                                        MeasurementSettings.from_mapping(snakemake.params.measurements),
+                                        CorrectionSettings.from_mapping(snakemake.params.correction).force_n,
+                                        IDENTIFIED_QUANTITIES)
+    observations = None if observations.empty else observations
 w_shifts = None
 if snakemake.params.model_error_enabled:
     w_shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
@@ -34,7 +45,7 @@ if snakemake.params.model_error_enabled:
 run = run_identification(span_type, catenary, data.w_m, settings, left_out=data.left_out,
                          mast_pairs=data.mast_pairs, log=log, n_runs=data.n_runs,
                          noise_covariance_m2=settings.noise_covariance_m2(span_type.n_droppers, repeatability_m2),
-                         w_shifts=w_shifts)
+                         w_shifts=w_shifts, observations=observations)
 out = snakemake.output
 write_identification(run, IdentificationPaths(s_opt=Path(out.s_opt), trace=Path(out.trace),
                                               estimators=Path(out.estimators), normality=Path(out.normality),

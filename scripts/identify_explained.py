@@ -1,12 +1,16 @@
 """Rule identify_explained: one span type's laws identified again without the spans the final
 model does not explain (diagnosis/spans.csv), and their difference from the laws of every span."""
 
+import dataclasses
 import shutil
 from pathlib import Path
 
 import pandas as pd
 
+from catenary.channels.assemble import IDENTIFIED_QUANTITIES, read_observations
+from catenary.channels.settings import MeasurementSettings
 from catenary.config import load_catenary
+from catenary.correction import CorrectionSettings
 from catenary.errors import InputError
 from catenary.identification.data import read_corrected
 from catenary.identification.runner import identify_laws
@@ -28,6 +32,13 @@ departing = set(spans.loc[(spans["unexplained"].astype(str) == "True")
                           | (spans["explained_by"].astype(str) != ""), "span_id"])
 leave = pd.Series(data.span_id).isin(departing).to_numpy()
 all_spans = pd.read_csv(snakemake.input.s_opt)
+if settings.estimator == "gaussian":         # the quantities the identification's model gives, read with W
+    observations, _ = read_observations(data.span_id, snakemake.input.projected,
+                                        snakemake.input.survey[0] if snakemake.input.survey else None,
+                                        MeasurementSettings.from_mapping(snakemake.params.measurements),
+                                        CorrectionSettings.from_mapping(snakemake.params.correction).force_n,
+                                        IDENTIFIED_QUANTITIES)
+    data = dataclasses.replace(data, observations=None if observations.empty else observations)
 bulk = data.without(leave, "unexplained by the final model (diagnosis/spans.csv)")
 table, why = None, "every span is explained by the final model"
 if leave.any():
@@ -41,7 +52,7 @@ if leave.any():
         laws = identify_laws(span_type, catenary, bulk.w_m, settings, left_out=bulk.left_out,
                              mast_pairs=bulk.mast_pairs, log=log, n_runs=bulk.n_runs,
                              noise_covariance_m2=settings.noise_covariance_m2(span_type.n_droppers, repeatability_m2),
-                             w_shifts=w_shifts)
+                             w_shifts=w_shifts, observations=bulk.observations)
         table = s_opt_table(laws.result, (), laws.model_error)
     except InputError as exc:        # too few explained spans for the identified parameters
         why = f"the {bulk.w_m.shape[0]} explained spans cannot identify the laws alone ({exc})"

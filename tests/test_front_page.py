@@ -44,9 +44,11 @@ def test_a_span_type_without_diagnosis_says_so():
     assert "**Diagnosis:** not run for this span type." in page
 
 
-def test_front_page_carries_the_total_intervals_and_the_correction_models_caveat():
+def test_front_page_carries_the_total_intervals_and_says_the_cars_caveat_once():
     # With the model-error budget: the 95 % total interval beside each parameter and the source
-    # dominating it; a named effect within the budget gets its caveat.
+    # dominating it; the car's caveat is said once for the page, however many span types, with
+    # the measurement that settles it and its power on each, and no finding is singled out; an
+    # ambiguous step carries its measurement.
     s_opt = S_OPT.assign(mu_total_low=[float("nan"), 20120.0], mu_total_high=[float("nan"), 20960.0],
                          sigma_total_low=[0.0035, 550.0], sigma_total_high=[0.0110, 1240.0])
     budget = pd.DataFrame([
@@ -54,13 +56,22 @@ def test_front_page_carries_the_total_intervals_and_the_correction_models_caveat
         {"parameter": "messenger_tension_n", "statistic": "mu", "systematic": 29.2,
          "dominant_source": "measuring_force"},
         {"parameter": "messenger_tension_n", "statistic": "sigma", "systematic": 1.4, "dominant_source": "speed"}])
-    findings = FINDINGS.assign(correction_model_alike=[True, False, False])
-    page = front_page("T\n=\n", SPANS, CORRECTION, {"N2": s_opt}, {"N2": findings}, {"N2": budget})
+    findings = FINDINGS.assign(recommended_measurement=["", "MW tension in the span in 12 spans (6 h): predicted "
+                                                        "power 0.83", ""])
+    row = dict(kind="car", step=2, asked="", option="force_calibration", quantity="measuring_force_n", per="line",
+               extent=1, available=1, cost_h=1.0, power=1.0, power_full=1.0, enough=True, recommended=True,
+               question="a measuring force 2 N off the declared one")
+    recs = pd.DataFrame([row, {**row, "option": "wear_channel", "recommended": False}])
+    page = front_page("T\n=\n", SPANS, CORRECTION, {"N2": s_opt, "N3": s_opt}, {"N2": findings, "N3": findings},
+                      {"N2": budget, "N3": budget}, recommendations={"N2": recs, "N3": recs.assign(power=0.9)})
     assert "[20120, 20960]" in page and "[550, 1240]" in page and "[0.0035, 0.011]" in page
     assert "μ: measuring_force; σ: speed" in page and "σ: head_mass" in page
-    assert "could equally be the correction's model of the measuring car" in page
+    assert page.count("W alone cannot tell a measuring force 2 N off the declared one") == 1
+    assert "static force of the measuring pantograph once (1 h), predicted power 1.00 on N2, 0.90 on N3" in page
+    assert "could equally be" not in page and "check the car before acting" not in page
+    assert "to settle it, measure the MW tension in the span in 12 spans (6 h)" in page
     body = publish_parts(page, writer="html", settings_overrides={"report_level": 2, "halt_level": 2})["body"]
-    assert body.count("<tr>") == 3
+    assert body.count("<tr>") == 6
     # without a budget the table keeps its five columns and says nothing of a total
     assert "95 % total" not in front_page("T\n=\n", SPANS, CORRECTION, {"N2": S_OPT}, {"N2": FINDINGS})
 

@@ -94,6 +94,24 @@ def test_diagnosis_rediscovers_the_tension_spread(span_type):
 
 
 @pytest.mark.parametrize("span_type", ["N2", "N3"])
+def test_measurements_besides_the_height_enter_the_diagnosis(span_type):
+    # The small campaign records the wear channel on every span and the contact force, and its
+    # survey holds tensions, ΔH and the car's force calibrated: the diagnosis reads them (its log
+    # says how many per quantity), names the T_MW spread alone (above), asks nothing they already
+    # answer — no option measuring what was measured, no question about the car, whose force the
+    # calibration and the contact-force channel measure to 0.5 N (a 2 N error: λ = 16, power ≥ 0.8)
+    from catenary.diagnosis.recommend import RECOMMENDATION_COLUMNS
+
+    log = (ROOT / "results" / "ci" / "logs" / "diagnose" / f"{span_type}.log").read_text()
+    line = next(x for x in log.splitlines() if "measured besides W" in x)
+    assert "'cw_residual_thickness_m': 20" in line and "measuring_force_n" in line, line
+    recs = pd.read_csv(ROOT / "results" / "ci" / span_type / "diagnosis" / "recommendations.csv")
+    assert list(recs.columns) == list(RECOMMENDATION_COLUMNS)
+    assert "car" not in set(recs["kind"])
+    assert not set(recs["quantity"]) & {"cw_residual_thickness_m", "measuring_force_n"}
+
+
+@pytest.mark.parametrize("span_type", ["N2", "N3"])
 def test_diagnosis_files_say_what_was_found(span_type):
     # What the small profile's diagnose rule wrote: the documented columns, one findings row per
     # step agreeing with candidates.csv, the plain-words summary naming the effect, the figures.

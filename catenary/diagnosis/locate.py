@@ -40,7 +40,7 @@ from ..identification.likelihood import GaussianFit
 
 __all__ = ["Locate", "bootstrap_eigenvalues", "detectable_magnitude", "efficient_information",
            "locate", "mixture_sf", "required_noncentrality", "score_pvalue",
-           "secant_noncentrality"]
+           "lr_power", "secant_noncentrality"]
 
 
 @dataclass(frozen=True)
@@ -191,6 +191,20 @@ def required_noncentrality(kind: str, level: float, power: float) -> float:
         return float((stats.norm.isf(level) + stats.norm.ppf(power)) ** 2)
     critical = stats.chi2.isf(level, 1)
     return float(optimize.brentq(lambda nc: stats.ncx2.sf(critical, 1, nc) - power, 1e-6, 1e3))
+
+
+def lr_power(noncentrality: float, n_shift: int, n_spread: int, level: float) -> float:
+    """Power of the LR test of ``n_shift`` interior and ``n_spread`` boundary parameters at
+    ``level`` for an effect of non-centrality λ: one spread alone is tested one-sided on its
+    boundary (√LR ≈ N(√λ, 1): ``Φ(√λ − z₁₋α)``, as :func:`required_noncentrality`); otherwise
+    ``P(χ²_k(λ) > c)`` with k the parameters and c the boundary mixture's critical value
+    (:func:`mixture_sf`)."""
+    lam = max(float(noncentrality), 0.0)
+    if n_spread == 1 and n_shift == 0:
+        return float(stats.norm.cdf(np.sqrt(lam) - stats.norm.isf(level)))
+    k = n_shift + n_spread
+    critical = optimize.brentq(lambda c: mixture_sf(c, n_shift, n_spread) - level, 1e-9, 1e3)
+    return float(stats.ncx2.sf(critical, k, lam)) if lam > 0 else float(stats.chi2.sf(critical, k))
 
 
 def secant_noncentrality(change: tuple[np.ndarray, np.ndarray], base: list[tuple[np.ndarray, np.ndarray]],

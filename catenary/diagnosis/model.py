@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..channels.quantities import observe as observe_quantities
 from ..config import Catenary, SpanType
 from ..effects import EFFECTS, SpanParameters
 from ..errors import OutOfModelRangeError
@@ -132,7 +133,9 @@ class EffectSampler:
     Notes
     -----
     ``magnitudes`` maps each active effect to its magnitudes (``{"std_n": 800.0}``). Returns
-    ``(W, F_min)`` or None when a sample leaves the fast model's range (J = −inf).
+    ``(W, F_min)`` or None when a sample leaves the fast model's range (J = −inf); with
+    ``observe`` (quantities of :mod:`catenary.channels.quantities`), ``(W, F_min, Y)``: Y their
+    values for each sample, effects applied.
     """
 
     def __init__(self, models: ModelSet, *, base_dimension: int, system_height_mode: str, columns: dict[str, int],
@@ -179,7 +182,8 @@ class EffectSampler:
             effect.apply(p, draws, **magnitudes[name])
         return p
 
-    def __call__(self, z: np.ndarray, means: np.ndarray, sigmas: np.ndarray, magnitudes: dict | None):
+    def __call__(self, z: np.ndarray, means: np.ndarray, sigmas: np.ndarray, magnitudes: dict | None,
+                 observe: tuple[str, ...] = ()):
         p = self.span_parameters(z, means, sigmas, magnitudes)
         try:
             w, force = self._solve(self.model, p)
@@ -192,6 +196,8 @@ class EffectSampler:
             return None
         if "force_influence" in self.needs:
             w = w + (p.measuring_force_n - self.declared_force_n) * self.models.force_influence_m_n
+        if observe:
+            return w, row_minimum(force), observe_quantities(p, self.models.catenary, observe)
         return w, row_minimum(force)
 
     def _solve(self, model: FastSpanModel, p: SpanParameters):
@@ -209,25 +215,32 @@ class EffectSampler:
 
 
 def simulate_spans(sampler: EffectSampler, means: np.ndarray, sigmas: np.ndarray, magnitudes: dict | None,
-                   n_spans: int, *, seed: int, noise_std_m: float = 0.0, max_draws: int = 100) -> np.ndarray:
+                   n_spans: int, *, seed: int, noise_std_m: float = 0.0, max_draws: int = 100,
+                   observe: tuple[str, ...] = ()):
     """W of ``n_spans`` independent model spans with every dropper taut [m], shape (n_spans, n).
 
     Plain Monte Carlo (i.i.d. normal scores, not the design) through the sampler — the
     campaign's effect functions and the fast model — with spans having a slack dropper drawn
     again, plus independent Gaussian noise of ``noise_std_m`` per dropper (the correction's
-    residual). Raises ``RuntimeError`` after ``max_draws × n_spans`` draws.
+    residual). Raises ``RuntimeError`` after ``max_draws × n_spans`` draws. With ``observe``
+    (quantities of :mod:`catenary.channels.quantities`), returns ``(W, Y)``: Y their true
+    values for the same spans (no measurement error).
     """
     rng = np.random.default_rng(seed)
-    out, have = [], 0
+    out, ys, have = [], [], 0
     for _ in range(max_draws):
         z = np.clip(rng.standard_normal((2 * n_spans, sampler.dimension)), -6.0, 6.0)
-        res = sampler(z, np.asarray(means, dtype=float), np.asarray(sigmas, dtype=float), magnitudes)
+        res = sampler(z, np.asarray(means, dtype=float), np.asarray(sigmas, dtype=float), magnitudes,
+                      **({"observe": tuple(observe)} if observe else {}))
         if res is None:
             raise RuntimeError("simulate_spans: a sample left the fast model's range; narrower laws needed")
-        w, f_min = res
+        w, f_min = res[:2]
         out.append(w[f_min > 0.0])
+        if observe:
+            ys.append(res[2][f_min > 0.0])
         have += out[-1].shape[0]
         if have >= n_spans:
             w = np.concatenate(out)[:n_spans]
-            return w + noise_std_m * rng.standard_normal(w.shape)
+            w = w + noise_std_m * rng.standard_normal(w.shape)
+            return (w, np.concatenate(ys)[:n_spans]) if observe else w
     raise RuntimeError(f"simulate_spans: fewer than {n_spans} taut spans in {max_draws * 2 * n_spans} draws")

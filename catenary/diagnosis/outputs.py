@@ -3,7 +3,8 @@
 ``findings.csv`` (one row per step), ``candidates.csv`` (every candidate at every step),
 ``steps.json`` (everything located before and after each step), the four figures of
 :mod:`.figures` and ``summary.md`` in plain words; with the per-span check, ``spans.csv``,
-``sections.csv`` and ``spans.png``.
+``sections.csv`` and ``spans.png``; ``recommendations.csv``: what to measure next for every
+question W alone leaves open (:mod:`.recommend`).
 """
 
 from __future__ import annotations
@@ -15,20 +16,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..model_error.diagnosis import Alike, BudgetSignatures, correction_model_alike
 from .candidates import CANDIDATES, CandidateParameter
 from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure, spans_figure
-from .runner import DiagnosisRun, LineDiagnosis, Step
+from .recommend import RECOMMENDATION_COLUMNS, recommendation_text
+from .runner import DiagnosisRun, LineDiagnosis
 from .span_effects import SPAN_EFFECT_COLUMNS
 
 __all__ = ["CANDIDATE_COLUMNS", "DiagnosisPaths", "FINDING_COLUMNS", "candidates_table", "findings_table",
-           "format_magnitude", "spans_markdown", "step_alike", "summary_markdown", "write_diagnosis",
+           "format_magnitude", "next_measurements_markdown", "spans_markdown", "summary_markdown", "write_diagnosis",
            "write_line_diagnosis"]
 
 FINDING_COLUMNS = ("step", "verdict", "effect", "runner_up", "delta_loglik", "p_value", "parameters",
                    "gap_closed_fraction", "bic_margin_to_runner_up", "j_before", "j_after", "top_eigenvalue_before",
                    "top_eigenvalue_after", "top_eigenvalue_band_after", "mahalanobis_cvm_p_before",
-                   "mahalanobis_cvm_p_after", "converged", "correction_model_alike", "correction_model_fit",
+                   "mahalanobis_cvm_p_after", "converged", "recommended_measurement", "recommended_power",
                    "n_unexplained_left_out", "verdict_with_unexplained", "effect_with_unexplained",
                    "depends_on_unexplained")
 CANDIDATE_COLUMNS = ("step", "effect", "n_parameters", "loglik", "delta_loglik", "lr_statistic", "lr_sandwich_factor",
@@ -52,6 +53,7 @@ class DiagnosisPaths:
     sections: Path | None = None
     spans_figure: Path | None = None
     span_effects: Path | None = None
+    recommendations: Path | None = None
 
     @classmethod
     def in_folder(cls, folder: str | Path) -> "DiagnosisPaths":
@@ -59,7 +61,8 @@ class DiagnosisPaths:
         return cls(findings=f / "findings.csv", candidates=f / "candidates.csv", steps=f / "steps.json",
                    residuals=f / "residuals.png", eigenvalues=f / "eigenvalues.png", qq=f / "mahalanobis_qq.png",
                    scores=f / "score_screen.png", summary=f / "summary.md", spans=f / "spans.csv",
-                   sections=f / "sections.csv", spans_figure=f / "spans.png", span_effects=f / "span_effects.csv")
+                   sections=f / "sections.csv", spans_figure=f / "spans.png", span_effects=f / "span_effects.csv",
+                   recommendations=f / "recommendations.csv")
 
 
 def _json(value) -> str:
@@ -89,30 +92,27 @@ def format_magnitude(value: float, unit: str, se: float | None = None) -> str:
     return text + suffix
 
 
-def step_alike(step: Step, budget: BudgetSignatures | None) -> Alike | None:
-    """Whether a named step's effect could equally be the correction's model
-    (:mod:`catenary.model_error.diagnosis`): its shift of the mean W is the mean residual before
-    the step less the one after, with the covariance of the mean residual before it. None when
-    the step named nothing or no budget was measured."""
-    if step.verdict != "named" or step.after is None or budget is None or not budget.sources:
-        return None
-    b = step.before
-    return correction_model_alike(b.residual_mean_m - step.after.residual_mean_m, b.residual_covariance_m2,
-                                  budget.sources, budget.absorbed)
+def _recommended(recommendations: pd.DataFrame | None, kind: str, step: int | None = None):
+    """The recommended rows of one kind of question (and step)."""
+    if recommendations is None or recommendations.empty:
+        return recommendations.iloc[0:0] if recommendations is not None else pd.DataFrame(
+            columns=list(RECOMMENDATION_COLUMNS))
+    rows = recommendations[recommendations["recommended"].astype(bool) & (recommendations["kind"] == kind)]
+    return rows if step is None else rows[rows["step"] == step]
 
 
-def findings_table(run: DiagnosisRun, budget: BudgetSignatures | None = None,
+def findings_table(run: DiagnosisRun, recommendations: pd.DataFrame | None = None,
                    with_unexplained: DiagnosisRun | None = None, n_unexplained: int = 0) -> pd.DataFrame:
-    """One row per step (:data:`FINDING_COLUMNS`); ``correction_model_alike`` (true, false, or
-    empty when not checked: nothing named, or no budget) and ``correction_model_fit`` (JSON: the
-    sources' best combination) say whether a named effect is within the correction's model-error
-    budget (:func:`step_alike`). When ``n_unexplained`` spans were left out of ``run``, each
-    step's verdict and effect with them kept (``with_unexplained``) are given beside, and
+    """One row per step (:data:`FINDING_COLUMNS`); an ambiguous step gives the measurement that
+    would settle it and its predicted power (``recommended_measurement``, ``recommended_power``;
+    :mod:`.recommend`). When ``n_unexplained`` spans were left out of ``run``, each step's verdict
+    and effect with them kept (``with_unexplained``) are given beside, and
     ``depends_on_unexplained`` says where they differ."""
     other = {st.step: st for st in with_unexplained.steps} if with_unexplained is not None else {}
     rows = []
     for s in run.steps:
-        alike = step_alike(s, budget)
+        rec = _recommended(recommendations, "ambiguous", s.step) if s.verdict == "ambiguous" else None
+        rec = rec.iloc[0] if rec is not None and len(rec) else None
         lead = s.leading
         runner = next((c for c in s.candidates if c.effect == s.runner_up), None)
         after = s.after
@@ -127,8 +127,9 @@ def findings_table(run: DiagnosisRun, budget: BudgetSignatures | None = None,
             top_eigenvalue_band_after=_json([after.eigen_low[0], after.eigen_high[0]]) if after else "",
             mahalanobis_cvm_p_before=s.before.cvm_p_value, mahalanobis_cvm_p_after=after.cvm_p_value if after else np.nan,
             converged=bool(lead.converged) if lead else True,
-            correction_model_alike=bool(alike.alike) if alike else None,
-            correction_model_fit=alike.as_json() if alike else "", n_unexplained_left_out=n_unexplained,
+            recommended_measurement=recommendation_text(rec) if rec is not None else "",
+            recommended_power=float(rec["power"] if rec["enough"] else rec["power_full"]) if rec is not None else np.nan,
+            n_unexplained_left_out=n_unexplained,
             verdict_with_unexplained=other[s.step].verdict if s.step in other else "",
             effect_with_unexplained=(other[s.step].effect or "") if s.step in other else "",
             depends_on_unexplained=(s.step not in other or (other[s.step].verdict, other[s.step].effect)
@@ -177,9 +178,9 @@ def _where(loc) -> list[str]:
 
 
 def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
-                     budget: BudgetSignatures | None = None) -> str:
-    """The plain-words report of a diagnosis run (``budget``: the correction's model-error
-    budget, :func:`step_alike`)."""
+                     recommendations: pd.DataFrame | None = None) -> str:
+    """The plain-words report of a diagnosis run (``recommendations``: what to measure next,
+    :mod:`.recommend`)."""
     s = run.settings
     lines = [f"# Diagnosis of span type {run.span_type}", ""]
     if not run.converged:
@@ -211,22 +212,6 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
                       f"{100 * st.gap_closed_fraction:.0f} % of the free Gaussian's gain"
                       + (f"; runner-up `{runner.effect}` with a BIC higher by {runner.bic - lead.bic:.1f}." if runner
                          else "."), ""]
-            alike = step_alike(st, budget)
-            if alike is not None and alike.alike:
-                combo = ", ".join(f"`{k}` {v:+.1f}" for k, v in alike.coefficients.items() if abs(v) > 0.05)
-                lines += [f"**It could equally be the correction's model of the measuring car**: the mean shift of W "
-                          f"it brings (χ² {alike.chi2_effect:.1f} against {alike.threshold:.1f}) is reproduced by a car "
-                          f"that differs from the correction's model within two standard uncertainties of each "
-                          f"source ({combo or 'none'}; χ² left {alike.chi2_left:.1f}). Check the car (force, "
-                          "pantograph, speed) before acting on this effect.", ""]
-            elif alike is not None:
-                lines += [f"Checked against the correction's model-error budget: "
-                          + ("its shift of the mean W is not significant (χ² "
-                             f"{alike.chi2_effect:.1f} against {alike.threshold:.1f}), no ground to suspect a "
-                             "systematic of the measuring car." if alike.chi2_effect <= alike.threshold else
-                             f"no combination of the sources within two standard uncertainties reproduces its "
-                             f"shift of the mean W (χ² left {alike.chi2_left:.1f} of {alike.chi2_effect:.1f}, "
-                             f"against {alike.threshold:.1f})."), ""]
             a = st.after
             lines += [f"After adding it: λ₁ = {a.eigenvalues[0]:.2f} "
                       f"({'inside' if a.top_eigenvalue_inside else 'still outside'} [{a.eigen_low[0]:.2f}, "
@@ -238,7 +223,9 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
                       f"(Δℓ {lead.delta_loglik:.1f}: {_described(st.effect, lead.estimates)}; Δℓ {runner.delta_loglik:.1f}: "
                       f"{_described(runner.effect, runner.estimates)}); their BIC differ by only "
                       f"{runner.bic - lead.bic:.1f} (< {s.bic_margin:g}). W alone cannot tell them apart; nothing is "
-                      "added.", ""]
+                      "added."
+                      + "".join(f" To settle it: {recommendation_text(r)} (*What to measure next*)."
+                                for _, r in _recommended(recommendations, "ambiguous", st.step).iterrows()), ""]
         else:
             lines += ["**No missing effect detected**: no candidate improves J significantly"
                       + (f" (largest Δℓ {max(c.delta_loglik for c in st.candidates):.2f}, `"
@@ -274,23 +261,52 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
         lines.append(f"The gap to a free Gaussian law of W went from {first.free_gaussian_gain:.1f} to "
                      f"{final.free_gaussian_gain:.1f} in J.")
     lines.append("")
+    lines += next_measurements_markdown(recommendations)
     if figures:
         lines += ["## Figures", ""] + [f"![{f}]({f})" for f in figures] + [""]
     return "\n".join(lines)
 
 
-def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, budget: BudgetSignatures | None = None, *,
+def next_measurements_markdown(recommendations: pd.DataFrame | None) -> list[str]:
+    """What to measure next, question by question, and the measuring car's caveat said once."""
+    if recommendations is None or recommendations.empty:
+        return []
+    lines = ["## What to measure next", "",
+             "For every question W alone leaves open, each measurement on the menu (`measurements.options`) was "
+             "simulated under the competing fitted models, on the diagnosis' own design: the smallest amount of it "
+             "that settles the question at the diagnosis' level with the configured power, and its cost "
+             "(`recommendations.csv` gives every option).", ""]
+    kinds = {"ambiguous": "Ambiguous", "undetectable": "Undetectable at its realistic size", "car": "The measuring car"}
+    for question, part in recommendations.groupby("question", sort=False):
+        best = part[part["recommended"].astype(bool)].iloc[0]
+        if best["kind"] == "car":
+            continue
+        lines.append(f"- {kinds[best['kind']]} — {question}: {recommendation_text(best)}.")
+    car = recommendations[(recommendations["kind"] == "car") & recommendations["recommended"].astype(bool)]
+    if len(car):
+        best = car.iloc[0]
+        lines += ["", f"**The measuring car.** W alone cannot tell {best['question']} (the model-error budget's "
+                  "95 % bound on the force) from the catenary: the free means absorb the uplift it leaves in every "
+                  "span. This concerns every "
+                  "finding alike, none in particular; what a car within its declared uncertainty moves is in the "
+                  "identified laws' 95 % total intervals. To settle it: " + recommendation_text(best) + "."]
+    return lines + [""]
+
+
+def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, recommendations: pd.DataFrame | None = None, *,
                     with_unexplained: DiagnosisRun | None = None, n_unexplained: int = 0,
                     extra_summary: list[str] | None = None) -> None:
-    """Write every output of one span type's diagnosis (``budget``: the correction's model-error
-    budget, :class:`catenary.model_error.diagnosis.BudgetSignatures`; None: not measured;
-    ``with_unexplained``, ``n_unexplained``: :func:`findings_table`; ``extra_summary``: lines
-    appended to ``summary.md``)."""
+    """Write every output of one span type's diagnosis (``recommendations``: what to measure next,
+    :func:`.recommend.recommend`; ``with_unexplained``, ``n_unexplained``: :func:`findings_table`;
+    ``extra_summary``: lines appended to ``summary.md``)."""
     for p in paths.__dict__.values():
         if p is not None:
             Path(p).parent.mkdir(parents=True, exist_ok=True)
-    findings_table(run, budget, with_unexplained, n_unexplained).to_csv(paths.findings, index=False,
-                                                                        float_format="%.10g")
+    findings_table(run, recommendations, with_unexplained, n_unexplained).to_csv(paths.findings, index=False,
+                                                                                 float_format="%.10g")
+    if paths.recommendations is not None:
+        (recommendations if recommendations is not None else pd.DataFrame(columns=list(RECOMMENDATION_COLUMNS))
+         ).to_csv(paths.recommendations, index=False, float_format="%.6g")
     candidates_table(run).to_csv(paths.candidates, index=False, float_format="%.10g")
     steps = [{"step": s.step, "model_effects": list(s.model_effects), "verdict": s.verdict, "effect": s.effect,
               "runner_up": s.runner_up, "before": s.before.as_dict(), "after": s.after.as_dict() if s.after else None}
@@ -306,7 +322,7 @@ def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, budget: BudgetSign
     score_figure(run, paths.scores, title)
     Path(paths.summary).write_text(summary_markdown(
         run, figures=tuple(Path(p).name for p in (paths.residuals, paths.eigenvalues, paths.qq, paths.scores)),
-        budget=budget) + "\n\n" + "\n".join(extra_summary or []))
+        recommendations=recommendations) + "\n\n" + "\n".join(extra_summary or []))
 
 
 def spans_markdown(line: LineDiagnosis) -> list[str]:
@@ -383,10 +399,11 @@ def _span_effects_markdown(line: LineDiagnosis) -> list[str]:
     return lines
 
 
-def write_line_diagnosis(line: LineDiagnosis, paths: DiagnosisPaths, budget: BudgetSignatures | None = None) -> None:
+def write_line_diagnosis(line: LineDiagnosis, paths: DiagnosisPaths,
+                         recommendations: pd.DataFrame | None = None) -> None:
     """Write a span type's diagnosis with its per-span check (:func:`write_diagnosis`, then
     ``spans.csv``, ``sections.csv``, ``spans.png`` and the check's part of ``summary.md``)."""
-    write_diagnosis(line.run, paths, budget, with_unexplained=line.with_unexplained,
+    write_diagnosis(line.run, paths, recommendations, with_unexplained=line.with_unexplained,
                     n_unexplained=0 if line.with_unexplained is None else int(line.check.departing.sum()),
                     extra_summary=spans_markdown(line))
     line.check.spans.to_csv(paths.spans, index=False, float_format="%.6g")

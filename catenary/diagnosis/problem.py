@@ -90,7 +90,13 @@ class JointProblem:
         return self.evaluate(theta).j
 
     def log_densities(self, theta: np.ndarray):
-        return self.evaluate(theta).log_density
+        """``ln p`` of each span's data at θ and, with observations besides W, the line's term
+        (line quantities, errors shared by every span) as one more independent unit (what the
+        sandwich sums over); None where J is not finite."""
+        value = self.evaluate(theta)
+        if value.log_density is None or self.likelihood.observations is None:
+            return value.log_density
+        return np.r_[value.log_density, value.line_log_density]
 
     def objective(self, theta) -> float:
         value = self.j(theta)

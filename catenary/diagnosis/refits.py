@@ -43,7 +43,7 @@ from .locate import (Locate, efficient_information, locate, mixture_sf,
 from .model import EffectSampler, ModelSet, design_columns, relative_cost
 from .problem import Fit, JointProblem, refit, with_covariance
 
-__all__ = ["CandidateTest", "DiagnosisContext", "base_moments_at", "continue_refit", "refit_and_test",
+__all__ = ["CandidateTest", "DiagnosisContext", "base_moments_at", "continue_refit", "moment_steps", "refit_and_test",
            "refit_and_test_all", "sandwich_leaders"]
 
 # _BASE_STEP (from identification.scoring): the step, in θ, of the base coordinates' finite
@@ -86,6 +86,8 @@ class CandidateTest:
     converged : bool
     n_evaluations : int
     time_s : float
+    theta : numpy.ndarray or None
+        The refit's coordinates (:attr:`.problem.JointProblem.names` of M + E).
     """
 
     effect: str
@@ -106,13 +108,16 @@ class CandidateTest:
     converged: bool
     n_evaluations: int
     time_s: float
+    theta: np.ndarray | None = None
 
 
 class DiagnosisContext:
     """What every model of one diagnosis shares: data, design, model set, box."""
 
-    def __init__(self, span_type, catenary, data, base, settings, force_influence, declared_force_n, effects, pairs):
+    def __init__(self, span_type, catenary, data, base, settings, force_influence, declared_force_n, effects, pairs,
+                 observations=None):
         self.span_type, self.data, self.base, self.settings, self.pairs = span_type, data, base, settings, pairs
+        self.observations = observations
         self.start = base.start_inputs(span_type, catenary)
         self.box = ParameterBox()
         n = span_type.n_droppers
@@ -136,7 +141,8 @@ class DiagnosisContext:
                                 system_height_mode=self.base.system_height_mode, columns=self.columns,
                                 active=effects, declared_force_n=self.declared_force_n, dimension=self.dimension)
         lik = Likelihood(self.models.model(sampler.needs), self.design, self.data, estimator="gaussian",
-                         system_height_mode=self.base.system_height_mode, sampler=sampler)
+                         system_height_mode=self.base.system_height_mode, sampler=sampler,
+                         observations=self.observations)
         return JointProblem.for_inputs(lik, self.start, self.free_means, self.free_sigmas, effects)
 
     def model_draws(self, problem: JointProblem, theta: np.ndarray, count: int) -> np.ndarray:
@@ -163,7 +169,11 @@ class DiagnosisContext:
     def locate(self, problem: JointProblem, fit: Fit) -> Locate:
         value = problem.evaluate(fit.theta)
         draws = self.model_draws(problem, fit.theta, self.settings.bootstrap_replicates * self.data.shape[0])
-        return locate(self.data, value.fit, value.j, draws, n_replicates=self.settings.bootstrap_replicates)
+        # the located figures are of W: with measurements besides W, J of W's own law (the free
+        # Gaussian it is compared with has no other quantity)
+        j = value.j if value.fit is None or self.observations is None else float(
+            np.sum(problem.likelihood.data_log_density(value.fit)))
+        return locate(self.data, value.fit, j, draws, n_replicates=self.settings.bootstrap_replicates)
 
 
 def _information(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndarray, base_moments) -> tuple:
@@ -234,14 +244,25 @@ def _detectable(ctx: DiagnosisContext, problem: JointProblem, theta0: np.ndarray
 
 
 def base_moments_at(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndarray):
-    """The model's Gaussian moments ``_BASE_STEP`` either side of ``theta`` along each base
-    coordinate, with the distance between them: ``(up, down, h)``. Where the model's J is not
-    finite on one side (a fit that stopped against the edge of what the model can draw, a
-    sample past the fast model's range or half the samples slack), the difference is taken on
-    the other side from ``theta`` itself, and with half the step again if needed (three times);
-    a coordinate along which J is nowhere finite near ``theta`` is a :class:`ConvergenceError`
-    of the fit (the starting model's fit did not reach a maximum)."""
-    centre = problem.evaluate(theta)
+    """The model's Gaussian moments of W ``_BASE_STEP`` either side of ``theta`` along each base
+    coordinate, with the distance between them: ``(up, down, h)`` (:func:`moment_steps`)."""
+    def moments(t):
+        value = problem.evaluate(t)
+        return None if value.fit is None else gaussian_moments(value)
+    return moment_steps(moments, theta, problem.names)
+
+
+def moment_steps(moments, theta: np.ndarray, names) -> list:
+    """``(up, down, h)`` along each coordinate of ``theta``: ``moments(θ)`` (a model's mean and
+    covariance, or None where it cannot be drawn) ``_BASE_STEP`` either side, and the distance
+    between the two. Where the moments are not available on one side (a fit that stopped
+    against the edge of what the model can draw, a sample past the fast model's range or half
+    the samples slack), the difference is taken on the other side from ``theta`` itself, and
+    with half the step again if needed (three times); a coordinate along which they are nowhere
+    available near ``theta`` is a :class:`ConvergenceError` of the fit (the model's fit did not
+    reach a maximum)."""
+    theta = np.asarray(theta, dtype=float)
+    centre = moments(theta)
     out = []
     for i in range(theta.size):
         for halving in range(4):
@@ -249,16 +270,15 @@ def base_moments_at(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndar
             up, down = theta.copy(), theta.copy()
             up[i] += step
             down[i] -= step
-            vu, vd = problem.evaluate(up), problem.evaluate(down)
-            if vu.fit is not None and vd.fit is not None:
-                out.append((gaussian_moments(vu), gaussian_moments(vd), 2 * step))
+            mu, md = moments(up), moments(down)
+            if mu is not None and md is not None:
+                out.append((mu, md, 2 * step))
                 break
-            if centre.fit is not None and (vu.fit is not None or vd.fit is not None):
-                out.append((gaussian_moments(vu), gaussian_moments(centre), step) if vu.fit is not None
-                           else (gaussian_moments(centre), gaussian_moments(vd), step))
+            if centre is not None and (mu is not None or md is not None):
+                out.append((mu, centre, step) if mu is not None else (centre, md, step))
                 break
         else:
-            raise ConvergenceError(f"J is not finite anywhere next to the fitted model along {problem.names[i]}: "
+            raise ConvergenceError(f"J is not finite anywhere next to the fitted model along {names[i]}: "
                                    "its fit did not reach a maximum of J")
     return out
 
@@ -358,7 +378,7 @@ def _tested(ctx: DiagnosisContext, problem: JointProblem, fit: Fit, new: Fit, n_
         effect=effect, n_parameters=len(cand.parameters), j=new.j, delta_loglik=float(delta), lr_statistic=float(lr),
         lr_factor=factor, p_value=float(p_value), p_adjusted=float(min(1.0, n_tests * p_value)),
         aic=float(-2 * new.j + 2 * k_total), bic=float(-2 * new.j + k_total * np.log(nu)), estimates=estimates,
-        converged=new.converged, n_evaluations=new.n_evaluations, time_s=new.time_s, **screen)
+        converged=new.converged, n_evaluations=new.n_evaluations, time_s=new.time_s, theta=new.theta.copy(), **screen)
     return test, new
 
 

@@ -93,11 +93,15 @@ class Step:
 
     @property
     def gap_closed_fraction(self) -> float:
-        """Δℓ of the named effect over the free Gaussian's gain (NaN when none was named)."""
+        """The share of the gap to a free Gaussian law of W that the named effect closed: the
+        rise of W's own J from the located model before to the one after, over the free
+        Gaussian's gain (NaN when none was named). Of W's J, not the J the tests compare: with
+        measurements besides W that J also rises by what they say, which no law of W can match."""
         c = self.leading
         if c is None or self.verdict != "named" or self.before.free_gaussian_gain <= 0:
             return float("nan")
-        return float(c.delta_loglik / self.before.free_gaussian_gain)
+        gain = c.delta_loglik if self.after is None else self.after.j - self.before.j
+        return float(gain / self.before.free_gaussian_gain)
 
 
 @dataclass
@@ -118,6 +122,7 @@ class DiagnosisRun:
     time_s: float
     n_evaluations: int = 0
     notes: list[str] = field(default_factory=list)
+    context: DiagnosisContext | None = field(default=None, repr=False)
 
     @property
     def named(self) -> list[str]:
@@ -169,7 +174,7 @@ def _verdict(tests: list[CandidateTest], level: float, margin: float) -> tuple[s
 def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, identification: IdentificationSettings,
              settings: DiagnosisSettings, *, mast_pairs: np.ndarray | None = None,
              force_influence_m_n: np.ndarray | None = None, declared_force_n: float = 36.0, workers: int = 1,
-             n_left_out: int = 0, log: logging.Logger | None = None) -> DiagnosisRun:
+             n_left_out: int = 0, observations=None, log: logging.Logger | None = None) -> DiagnosisRun:
     """Run the forward selection of the module docstring on the measured W of one span type.
 
     Parameters
@@ -192,6 +197,10 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
     n_left_out : int
         Spans of the type left out upstream (correction not converged), for the refusal message
         when too few spans remain (:func:`catenary.identification.runner.check_span_count`).
+    observations : Observations, optional
+        Measurements besides W, row by row with ``data_w_m``
+        (:class:`catenary.channels.observations.Observations`): every model's J reads them
+        jointly with W.
     """
     log = log or _LOG
     t0 = time.perf_counter()
@@ -200,7 +209,7 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
     n = span_type.n_droppers
     candidates, skipped = applicable_candidates(settings, base, n, force_influence_m_n is not None)
     ctx = DiagnosisContext(span_type, catenary, data, base, settings, force_influence_m_n, declared_force_n,
-                   (*settings.start_effects, *candidates), mast_pairs)
+                           (*settings.start_effects, *candidates), mast_pairs, observations)
     problem = ctx.problem(tuple(settings.start_effects))
     check_span_count(span_type.name, data.shape[0], len(problem.names), log, n_left_out=n_left_out)
     fit = refit(problem, np.zeros(len(problem.names)), ctx.box, base_step=base.initial_step, effect_step=1.0,
@@ -272,7 +281,7 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
     run = DiagnosisRun(span_type=span_type.name, settings=settings, base=base, n_spans=int(data.shape[0]),
                        skipped=skipped, start=start_fit, steps=steps, final=final, final_names=final.names,
                        final_problem=problem, data_normality={"statistic": hz.statistic, "p_value": hz.p_value},
-                       time_s=time.perf_counter() - t0)
+                       time_s=time.perf_counter() - t0, context=ctx)
     return run
 
 
@@ -374,7 +383,7 @@ def diagnose_line(span_type: SpanType, catenary: Catenary, data, places, identif
         return check_spans(spans, data.w_m, law, profile, pairs, check_settings)
 
     first = diagnose(span_type, catenary, data.w_m, identification, settings, mast_pairs=data.mast_pairs, log=log,
-                     **kwargs)
+                     observations=data.observations, **kwargs)
     check = checked(first)
     log.info("%s: %d of %d spans unexplained by the final model (FDR %.0f %%)%s", span_type.name,
              check.n_unexplained, data.w_m.shape[0], 100 * settings.fdr,
@@ -388,7 +397,7 @@ def diagnose_line(span_type: SpanType, catenary: Catenary, data, places, identif
     n_left_out = kwargs.pop("n_left_out", 0) + int(departing.sum())
     try:
         run = diagnose(span_type, catenary, bulk.w_m, identification, settings, mast_pairs=bulk.mast_pairs,
-                       log=log, n_left_out=n_left_out, **kwargs)
+                       log=log, n_left_out=n_left_out, observations=bulk.observations, **kwargs)
     except InputError as exc:          # too few spans left for the model's parameters
         log.warning("%s: the explained spans alone cannot be diagnosed (%s): the verdicts are those of every "
                     "span, the unexplained ones included", span_type.name, exc)

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..channels.observations import Observations
 from ..config import SpanType
 from ..errors import InputError
 from ..parquet import read_table
@@ -43,6 +44,8 @@ class CorrectedData:
         the file does not say (no ``section_id``, ``start_chainage_m``, ``end_chainage_m``).
     n_runs : numpy.ndarray of int, shape (K,)
         Converged runs averaged into each row of ``w_m``.
+    observations : Observations or None
+        What was measured besides W, row by row (:mod:`catenary.channels.observations`).
     """
 
     w_m: np.ndarray
@@ -50,6 +53,7 @@ class CorrectedData:
     left_out: list[tuple[str, str]]
     mast_pairs: np.ndarray | None = None
     n_runs: np.ndarray | None = None
+    observations: Observations | None = None
 
     def without(self, leave_out: np.ndarray, reason: str) -> "CorrectedData":
         """The same data with the rows where ``leave_out`` is true left out (their span ids and
@@ -64,7 +68,8 @@ class CorrectedData:
             pairs = p[(p >= 0).all(axis=1)]
         return CorrectedData(w_m=self.w_m[keep], span_id=self.span_id[keep],
                              left_out=self.left_out + [(str(s), reason) for s in self.span_id[drop]],
-                             mast_pairs=pairs, n_runs=None if self.n_runs is None else self.n_runs[keep])
+                             mast_pairs=pairs, n_runs=None if self.n_runs is None else self.n_runs[keep],
+                             observations=None if self.observations is None else self.observations.rows(keep))
 
 
 #: Largest distance between the registered positions of one mast as two spans of several runs

@@ -8,6 +8,11 @@ vectors W (n droppers), the law of W is estimated from them and
 
 over the K measured spans. Same design ⇒ same J, bit for bit.
 
+It is one concern, over 500 lines: J of the data under the model sample's law — the estimators, the
+one chunked pass that accumulates the sample's moments (W's and, with measurements besides W,
+the joint ones) and the data's density under them; split apart, the pass and its readers would
+be two copies of one loop.
+
 Estimators
 ----------
 ``"gaussian"`` (default, the paper's choice): multivariate normal with the sample mean and the
@@ -35,6 +40,16 @@ gives the hard indicator ``F_min > 0``). The mean and covariance are weighted ac
 slack fraction ``1 − Σ weight / N`` is reported; if it exceeds ``max_slack_fraction`` (default
 0.5) — the model sample no longer represents the span — J = −inf. J is also −inf when a T_MW
 sample falls outside the fast model's tension range or the covariance is not positive definite.
+
+Measurements besides W
+----------------------
+With ``observations`` (:class:`catenary.channels.observations.Observations`: a residual
+thickness, a tension, a mast's ΔH per span; the measuring force for the line), the model sample
+gives each measured quantity beside W (:mod:`catenary.channels.quantities`, the same functions
+the campaign records them with), the Gaussian is fitted to W and the quantities together, and
+each span's W and measured quantities enter J jointly, with each quantity's measurement error
+(:func:`catenary.channels.observations.joint_log_density`); a line quantity adds its own term.
+W's own fit (``LikelihoodValue.fit``) is computed exactly as without them.
 """
 
 from __future__ import annotations
@@ -45,6 +60,9 @@ import numpy as np
 from scipy import special
 from scipy.linalg import solve_triangular
 
+from ..channels.observations import Observations, joint_log_density, line_log_density
+from ..channels.quantities import model_columns, observe
+from ..effects import SpanParameters
 from ..errors import OutOfModelRangeError
 from ..fast import FastSpanModel, row_minimum
 from .design import UnitDesign, design_dimension, map_inputs
@@ -94,6 +112,15 @@ def _fit_from_moments(sum_w: float, sum_w2: float, s1: np.ndarray, s2: np.ndarra
     cov = (s2 - sum_w * np.outer(d, d)) / (sum_w - sum_w2 / sum_w)
     cov = 0.5 * (cov + cov.T)
     return GaussianFit(mean=shift + d, chol=np.linalg.cholesky(cov), n_effective=sum_w**2 / sum_w2)
+
+
+def _joint_moments(sum_w: float, sum_w2: float, s1: np.ndarray, s2: np.ndarray,
+                   shift: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and covariance from shifted weighted moments, as :func:`_fit_from_moments` but not
+    factored (a measured quantity the model holds fixed has no variance of its own)."""
+    d = s1 / sum_w
+    cov = (s2 - sum_w * np.outer(d, d)) / (sum_w - sum_w2 / sum_w)
+    return shift + d, 0.5 * (cov + cov.T)
 
 
 def fit_gaussian(sample: np.ndarray, weights: np.ndarray | None = None) -> GaussianFit:
@@ -197,6 +224,14 @@ class LikelihoodValue:
     fit : GaussianFit or None
         Mean and covariance of the model sample (Gaussian estimator; None otherwise or unless
         ``status == "ok"``).
+    joint : (numpy.ndarray, numpy.ndarray) or None
+        Mean and covariance of the model sample over W and every quantity the likelihood's
+        observations measure, in the order of W then :func:`catenary.channels.quantities.model_columns`
+        of :attr:`~catenary.channels.observations.Observations.sampled` [SI] (None without
+        observations).
+    line_log_density : float
+        The part of J that belongs to the line, not to a span: the line observations and the
+        errors shared by every span's measurement (0 without any).
     """
 
     j: float
@@ -205,6 +240,8 @@ class LikelihoodValue:
     status: str
     log_density: np.ndarray | None = None
     fit: GaussianFit | None = None
+    joint: tuple | None = None
+    line_log_density: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -250,7 +287,11 @@ class Likelihood:
         None when a sample falls outside the model's range (J = −inf); ``extra`` is what
         :meth:`evaluate` was given (the diagnosis's effect magnitudes, :mod:`catenary.diagnosis`).
         It states the design columns it reads as its ``dimension``. Default: the fast model of
-        the random inputs alone.
+        the random inputs alone. With observations it is called with ``observe=`` the quantities
+        and returns ``(W, F_min, Y)``, Y their model columns.
+    observations : Observations, optional
+        Measurements besides W (module docstring; Gaussian estimator only). Without a sampler,
+        only quantities of the random inputs and no line quantity.
 
     Notes
     -----
@@ -262,7 +303,8 @@ class Likelihood:
                  estimator: str = "gaussian", system_height_mode: str = "shared",
                  slack_taper_n: float = 2.0, max_slack_fraction: float = 0.5,
                  bandwidth: str = "scott", chunk_size: int = 16384, sampler=None,
-                 noise_covariance_m2: np.ndarray | None = None, n_runs: np.ndarray | None = None):
+                 noise_covariance_m2: np.ndarray | None = None, n_runs: np.ndarray | None = None,
+                 observations: Observations | None = None):
         n = model.n_droppers
         expected = design_dimension(n, system_height_mode) if sampler is None else sampler.dimension
         if design.dimension != expected:
@@ -299,6 +341,26 @@ class Likelihood:
             if estimator != "gaussian":
                 raise ValueError("noise_covariance_m2: a measurement noise needs the gaussian estimator")
             self.noise_covariance_m2 = noise
+        self.observations = None
+        if observations is not None and not observations.empty:
+            if observations.values.shape[0] != data.shape[0]:
+                raise ValueError(f"observations: expected {data.shape[0]} rows (one per measured span), got "
+                                 f"{observations.values.shape[0]}")
+            if estimator != "gaussian":
+                raise ValueError("observations: measurements besides W need the gaussian estimator")
+            if sampler is None and observations.line:
+                raise ValueError("observations: a line quantity needs a model of it (a sampler)")
+            self.observations = observations
+            values = observations.values
+            seen = np.isfinite(values).any(axis=0)
+            first = {}
+            for o in observations.line:
+                first.setdefault(o.quantity, o.value)
+            # the moments are accumulated about the data (a quantity the model holds fixed is
+            # then no catastrophic cancellation of two large sums)
+            span_shift = np.zeros(values.shape[1])
+            span_shift[seen] = np.nanmean(values[:, seen], axis=0)
+            self._shift_y = np.r_[span_shift, [first[q] for q in model_columns(observations.sampled)[values.shape[1]:]]]
 
     @property
     def n_samples(self) -> int:
@@ -311,7 +373,8 @@ class Likelihood:
                           system_height_mode=self.system_height_mode, slack_taper_n=self.slack_taper_n,
                           max_slack_fraction=self.max_slack_fraction, bandwidth=self.bandwidth,
                           chunk_size=self.chunk_size, sampler=self.sampler,
-                          noise_covariance_m2=self.noise_covariance_m2, n_runs=self.n_runs if same else None)
+                          noise_covariance_m2=self.noise_covariance_m2, n_runs=self.n_runs if same else None,
+                          observations=self.observations if same else None)
 
     def data_log_density(self, fit: GaussianFit) -> np.ndarray:
         """``ln p(W_k)`` of each measured span under the model's Gaussian law ``fit``, with its
@@ -338,10 +401,15 @@ class Likelihood:
             return (min_force > 0.0).astype(float)
         return special.ndtr(min_force / self.slack_taper_n)
 
-    def _sample(self, z, means, sigmas, extra):
-        """(W, F_min) of the design rows ``z``, or None if T_MW is out of the model's range."""
+    def _sample(self, z, means, sigmas, extra, names=None):
+        """(W, F_min) of the design rows ``z`` — (W, F_min, Y) with observations (or ``names``),
+        Y the model columns of the quantities they measure (or of ``names``) — or None if T_MW is
+        out of the model's range."""
+        if names is None:
+            names = self.observations.sampled if self.observations is not None else ()
         if self.sampler is not None:
-            return self.sampler(z, means, sigmas, extra)
+            return self.sampler(z, means, sigmas, extra, observe=names) if names else self.sampler(z, means, sigmas,
+                                                                                                    extra)
         lo, hi = self.model.messenger_tension_bounds_n
         x = map_inputs(z, means, sigmas, self.system_height_mode)
         t = x.messenger_tension_n
@@ -349,18 +417,53 @@ class Likelihood:
             return None
         res = self.model.evaluate(x.dropper_lengths_m, t, x.system_height_left_m,
                                   x.system_height_right_m, chunk_size=self.chunk_size)
-        return res.w_m, row_minimum(res.dropper_force_n)
+        if not names:
+            return res.w_m, row_minimum(res.dropper_force_n)
+        st = self.model.span_type
+        p = SpanParameters.independent_spans(
+            x.dropper_lengths_m, t, x.system_height_left_m, x.system_height_right_m,
+            system_height_mean_m=float(means[-1]), contact_tension_n=st.contact_tension_n, measuring_force_n=np.nan)
+        return res.w_m, row_minimum(res.dropper_force_n), observe(p, self.model.catenary, names)
 
-    def _chunks(self, means, sigmas, extra=None):
-        """Yield (W, weights, F_min) per block of the design, or None if T_MW is out of range."""
+    def _chunks(self, means, sigmas, extra=None, with_y: bool = False):
+        """Yield (W, weights, F_min) per block of the design — (W, weights, F_min, Y) with
+        ``with_y`` — or None if T_MW is out of range."""
         z = self.design.z
         for start in range(0, z.shape[0], self.chunk_size):
             out = self._sample(z[start:start + self.chunk_size], means, sigmas, extra)
             if out is None:
                 yield None
                 return
-            w, f_min = out
-            yield w, self.taper_weights(f_min), f_min
+            w, f_min = out[:2]
+            yield (w, self.taper_weights(f_min), f_min, *out[2:3]) if with_y else (w, self.taper_weights(f_min), f_min)
+
+    def joint_moments(self, means: np.ndarray, sigmas: np.ndarray, extra, quantities) -> tuple | None:
+        """Mean and covariance of the (taper-weighted) model sample over W and the model columns
+        of ``quantities`` (:func:`catenary.channels.quantities.model_columns`) [SI], whatever was
+        measured; None where the model sample is unusable (as J = −inf)."""
+        quantities = tuple(quantities)
+        sum_w = sum_w2 = 0.0
+        s1 = s2 = shift = None
+        z = self.design.z
+        for start in range(0, z.shape[0], self.chunk_size):
+            out = self._sample(z[start:start + self.chunk_size], np.asarray(means, dtype=float),
+                               np.asarray(sigmas, dtype=float), extra, names=quantities)
+            if out is None:
+                return None
+            x = np.column_stack([out[0], *out[2:3]]) if quantities else out[0]
+            weight = self.taper_weights(out[1])
+            if shift is None:
+                shift = x[0].copy()
+                s1, s2 = np.zeros(x.shape[1]), np.zeros((x.shape[1], x.shape[1]))
+            c = x - shift
+            cw = c * weight[:, None]
+            sum_w += float(weight.sum())
+            sum_w2 += float(np.dot(weight, weight))
+            s1 += cw.sum(axis=0)
+            s2 += c.T @ cw
+        if 1.0 - sum_w / self.n_samples > self.max_slack_fraction:
+            return None
+        return _joint_moments(sum_w, sum_w2, s1, s2, shift)
 
     def model_sample(self, means: np.ndarray, sigmas: np.ndarray, extra=None) -> ModelSample:
         """The whole model sample of W under the laws (means, sigmas).
@@ -398,28 +501,60 @@ class Likelihood:
                 return LikelihoodValue(-np.inf, slack, 0.0, "singular")
             return LikelihoodValue(float(np.sum(logp)), slack, n_eff, "ok", logp)
         n = self.model.n_droppers
+        obs = self.observations
         sum_w = sum_w2 = 0.0
         s1 = np.zeros(n)
         s2 = np.zeros((n, n))
-        for part in self._chunks(means, sigmas, extra):
+        m = 0 if obs is None else self._shift_y.size
+        s1y, s2wy, s2yy = np.zeros(m), np.zeros((n, m)), np.zeros((m, m))
+        for part in self._chunks(means, sigmas, extra, with_y=obs is not None):
             if part is None:
                 return LikelihoodValue(-np.inf, np.nan, 0.0, "tension_out_of_bounds")
-            w, weight, _ = part
+            w, weight = part[:2]
             c = w - self._shift
             cw = c * weight[:, None]
             sum_w += float(weight.sum())
             sum_w2 += float(np.dot(weight, weight))
             s1 += cw.sum(axis=0)
             s2 += c.T @ cw
+            if obs is not None:
+                cy = part[3] - self._shift_y
+                cyw = cy * weight[:, None]
+                s1y += cyw.sum(axis=0)
+                s2wy += c.T @ cyw
+                s2yy += cy.T @ cyw
         slack = 1.0 - sum_w / self.n_samples
         if slack > self.max_slack_fraction:
             return LikelihoodValue(-np.inf, slack, 0.0, "slack")
         try:
             fit = _fit_from_moments(sum_w, sum_w2, s1, s2, self._shift)
-            logp = self.data_log_density(fit)
+            if obs is None:
+                logp = self.data_log_density(fit)
+                return LikelihoodValue(float(np.sum(logp)), slack, fit.n_effective, "ok", logp, fit)
+            joint = _joint_moments(sum_w, sum_w2, np.r_[s1, s1y], np.block([[s2, s2wy], [s2wy.T, s2yy]]),
+                                   np.r_[self._shift, self._shift_y])
+            logp, line = self._joint_log_density(joint)
         except np.linalg.LinAlgError:
             return LikelihoodValue(-np.inf, slack, 0.0, "singular")
-        return LikelihoodValue(float(np.sum(logp)), slack, fit.n_effective, "ok", logp, fit)
+        return LikelihoodValue(float(np.sum(logp)) + line, slack, fit.n_effective, "ok", logp, fit, joint, line)
+
+    def _joint_log_density(self, joint) -> tuple[np.ndarray, float]:
+        """Per span ``ln p`` of W and its measured quantities, and the line observations' term."""
+        obs = self.observations
+        mean, cov = joint
+        n, c = self.model.n_droppers, obs.values.shape[1]
+        span_cols = np.arange(n + c)
+        noise = None
+        if self.noise_covariance_m2 is not None:
+            noise = [(self.n_runs == runs, self.noise_covariance_m2 / runs) for runs in np.unique(self.n_runs)]
+        logp, common = joint_log_density(self.data_w_m, obs, mean[span_cols], cov[np.ix_(span_cols, span_cols)],
+                                         noise)
+        if not obs.line:
+            return logp, common
+        line_cols = model_columns(obs.sampled)[c:]
+        where = {q: n + c + i for i, q in enumerate(line_cols)}
+        idx = [where[o.quantity] for o in obs.line]
+        return logp, common + line_log_density(obs, mean[idx], np.diag(cov)[idx])
 
     def __call__(self, means: np.ndarray, sigmas: np.ndarray, extra=None) -> float:
         """J(s) (see :meth:`evaluate`)."""

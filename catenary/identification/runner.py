@@ -290,7 +290,7 @@ def identify_laws(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray,
                   settings: IdentificationSettings, *, left_out: list[tuple[str, str]] | None = None,
                   mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None,
                   noise_covariance_m2: np.ndarray | None = None, n_runs: np.ndarray | None = None,
-                  w_shifts: SpanShifts | None = None) -> IdentifiedLaws:
+                  w_shifts: SpanShifts | None = None, observations=None) -> IdentifiedLaws:
     """s_opt with its standard errors and model-error budget (the first half of
     :func:`run_identification`, whose parameters it takes): what the later stages need of laws
     identified on a subset of the spans (those the final model explains)."""
@@ -305,7 +305,11 @@ def identify_laws(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray,
     lik = make_likelihood(span_type, catenary, data, start=start, n_samples=s.n_samples, design_method=s.design,
                           seed=s.seed, system_height_mode=s.system_height_mode, estimator=s.estimator,
                           bandwidth=s.bandwidth, neighbours=s.neighbours, noise_covariance_m2=noise_covariance_m2,
-                          n_runs=n_runs)
+                          n_runs=n_runs, observations=observations)
+    if lik.observations is not None:
+        log.info("%s: measured besides W, read with it: %s", span_type.name, ", ".join(
+            f"{c} on {int(np.isfinite(lik.observations.values[:, i]).sum())} spans"
+            for i, c in enumerate(lik.observations.columns)))
     if noise_covariance_m2 is not None:
         runs = np.ones(data.shape[0], dtype=int) if n_runs is None else np.asarray(n_runs)
         log.info("%s: measurement noise in the likelihood: %.3f mm RMS per run (%s), spans averaged over %s run(s)",
@@ -368,7 +372,7 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
                        mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None,
                        noise_covariance_m2: np.ndarray | None = None,
                        n_runs: np.ndarray | None = None,
-                       w_shifts: SpanShifts | None = None) -> IdentificationRun:
+                       w_shifts: SpanShifts | None = None, observations=None) -> IdentificationRun:
     """Identify the input laws of ``span_type`` from measured deflections and build every output.
 
     Parameters
@@ -395,6 +399,10 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
         standard uncertainty (:func:`catenary.model_error.propagation.span_shifts`). Given, each
         source is carried to every identified μ and σ (:mod:`catenary.model_error.propagation`)
         and s_opt gets its total intervals.
+    observations : Observations, optional
+        Measurements besides W of the random inputs (a tension in a span, ΔH at a mast), row by
+        row with ``data_w_m`` (:class:`catenary.channels.observations.Observations`; Gaussian
+        estimator): J reads them jointly with W.
 
     Returns
     -------
@@ -408,7 +416,8 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     log = log or _LOG
     t0 = time.perf_counter()
     laws = identify_laws(span_type, catenary, data_w_m, settings, left_out=left_out, mast_pairs=mast_pairs, log=log,
-                         noise_covariance_m2=noise_covariance_m2, n_runs=n_runs, w_shifts=w_shifts)
+                         noise_covariance_m2=noise_covariance_m2, n_runs=n_runs, w_shifts=w_shifts,
+                         observations=observations)
     lik, start, result, budget, j_start = laws.likelihood, laws.start, laws.result, laws.model_error, laws.j_start
     data = lik.data_w_m
     s = settings

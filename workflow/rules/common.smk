@@ -11,6 +11,11 @@ SPAN_TYPES = config["span_types"]
 RECORDING_FILES = config["recording"] if isinstance(config["recording"], list) else [config["recording"]]
 # A run on the virtual campaign's own recording: the validation rules compare with its truth.
 CAMPAIGN_RUN = any(str(path).startswith(f"{RESULTS}/campaign/") for path in RECORDING_FILES)
+# The crews' survey (docs/input_formats.md): a file, none, or `campaign` — the virtual campaign's
+# own survey when the recording is the campaign's, none otherwise (a user's recording, a test's).
+_SURVEY = config.get("survey")
+SURVEY_FILES = (([f"{RESULTS}/campaign/survey.csv"] if CAMPAIGN_RUN else []) if _SURVEY == "campaign"
+                else [_SURVEY] if _SURVEY else [])
 # The campaign's outputs shipped for these very files (data/default_campaign for make run) are
 # copied, not simulated, while the copy's manifest matches them (catenary.shipped).
 CAMPAIGN_COPY = config.get("campaign_copy")
@@ -99,8 +104,8 @@ FRONT_PAGE = f"{RESULTS}/report/front_page.rst"
 
 
 def front_page_inputs(wildcards):
-    """s_opt.csv, model_error.csv and findings.csv of every measured span type, keyed s_opt_<type>,
-    model_error_<type>, findings_<type>."""
+    """s_opt.csv, model_error.csv, findings.csv and the diagnosis' spans, sections and
+    recommendations of every measured span type, keyed s_opt_<type>, model_error_<type>, …"""
     inputs = {}
     for span_type in measured_span_types():
         inputs[f"s_opt_{span_type}"] = f"{RESULTS}/{span_type}/identification/s_opt.csv"
@@ -108,6 +113,7 @@ def front_page_inputs(wildcards):
         inputs[f"findings_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/findings.csv"
         inputs[f"spans_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/spans.csv"
         inputs[f"sections_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/sections.csv"
+        inputs[f"recommendations_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/recommendations.csv"
     return inputs
 
 
@@ -244,7 +250,7 @@ def diagnosis_outputs(span_types=SPAN_TYPES):
             f"{RESULTS}/{{span_type}}/diagnosis/{name}"
             for name in ("findings.csv", "candidates.csv", "steps.json", "residuals.png", "eigenvalues.png",
                          "mahalanobis_qq.png", "score_screen.png", "summary.md", "spans.csv", "sections.csv",
-                         "spans.png")
+                         "spans.png", "recommendations.csv")
         ],
         span_type=span_types,
     )

@@ -9,8 +9,9 @@ rule diagnose:
     input:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
         profiles=f"{RESULTS}/{{span_type}}/corrected_profiles.parquet",
+        spans=f"{RESULTS}/{{span_type}}/spans.parquet",
+        survey=SURVEY_FILES,
         model_error=f"{RESULTS}/correction/model_error.parquet",
-        model_error_budget=f"{RESULTS}/correction/model_error_budget.csv",
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:
@@ -26,8 +27,11 @@ rule diagnose:
         sections=f"{RESULTS}/{{span_type}}/diagnosis/sections.csv",
         spans_figure=reported(f"{RESULTS}/{{span_type}}/diagnosis/spans.png", "diagnosis_spans_figure", DIAGNOSIS, "Unexplained spans along the line"),
         span_effects=f"{RESULTS}/{{span_type}}/diagnosis/span_effects.csv",
+        recommendations=reported(f"{RESULTS}/{{span_type}}/diagnosis/recommendations.csv", "recommendations", DIAGNOSIS, "What to measure next"),
     params:
         effects_modules=config.get("effects_modules", []),
+        measurements=config.get("measurements"),
+        model_error=config.get("model_error"),
         maintenance=config.get("maintenance"),
         identification=span_type_settings("identification"),
         diagnosis=span_type_settings("diagnosis"),

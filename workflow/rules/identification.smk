@@ -30,6 +30,8 @@ rule identify:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
         noise=f"{RESULTS}/{{span_type}}/repeatability/noise.json",
         model_error=f"{RESULTS}/correction/model_error.parquet",
+        spans=f"{RESULTS}/{{span_type}}/spans.parquet",
+        survey=SURVEY_FILES,
         catenary=config["catenary"],
     output:
         s_opt=reported(f"{RESULTS}/{{span_type}}/identification/s_opt.csv", "s_opt", IDENTIFICATION, "Table 2: s_opt"),
@@ -42,6 +44,8 @@ rule identify:
     params:
         identification=span_type_settings("identification"),
         model_error_enabled=config.get("model_error", {}).get("enabled", False),
+        measurements=config.get("measurements"),
+        correction=config["correction"],
     log:
         f"{RESULTS}/logs/identify/{{span_type}}.log",
     benchmark:
@@ -62,6 +66,8 @@ rule identify_explained:
         model_error=f"{RESULTS}/correction/model_error.parquet",
         s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt.csv",
         spans=f"{RESULTS}/{{span_type}}/diagnosis/spans.csv",
+        projected=f"{RESULTS}/{{span_type}}/spans.parquet",
+        survey=SURVEY_FILES,
         catenary=config["catenary"],
     output:
         s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt_explained.csv",
@@ -69,6 +75,8 @@ rule identify_explained:
     params:
         identification=span_type_settings("identification"),
         model_error_enabled=config.get("model_error", {}).get("enabled", False),
+        measurements=config.get("measurements"),
+        correction=config["correction"],
     log:
         f"{RESULTS}/logs/identify_explained/{{span_type}}.log",
     benchmark:

@@ -16,6 +16,7 @@ if CAMPAIGN_COPIED:
             masts_truth=f"{RESULTS}/campaign/masts_truth.csv",
             truth=f"{RESULTS}/campaign/truth.parquet",
             truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
+            survey=f"{RESULTS}/campaign/survey.csv",
         params:
             folder=lambda wildcards, input: os.path.dirname(input.files[0]),
             why=CAMPAIGN_COPY_WHY,
@@ -67,6 +68,7 @@ else:
             masts_truth=f"{RESULTS}/campaign/masts_truth.csv",
             truth=f"{RESULTS}/campaign/truth.parquet",
             truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
+            survey=f"{RESULTS}/campaign/survey.csv",
         priority: 2  # as ingest: on the chain to the correction
         log:
             f"{RESULTS}/logs/campaign.log",
