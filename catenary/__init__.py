@@ -3,10 +3,11 @@
 Physics (static and dynamic finite-element models of contact wire and messenger wire) and
 statistics (maximum-likelihood identification of the random inputs) live here, importable
 and testable without Snakemake. SI units throughout.
+
+Importing it, or any of its modules, changes nothing in the caller's process: the allocator
+(:mod:`catenary.heap`) and the BLAS threads (:mod:`catenary.blas`) are tuned where a process
+starts — the rule scripts, the benchmarks, the tests — and figures never choose Matplotlib's
+backend (:mod:`catenary.plots`).
 """
 
 __version__ = "0.1.0"
-
-from .heap import steady_heap
-
-steady_heap()       # glibc keeps freed arrays' memory for the next ones (catenary.heap)

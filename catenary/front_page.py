@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -90,6 +91,39 @@ def correction_lines(summary: pd.DataFrame, span_type: str) -> list[str]:
             f"passes, largest final gap {_number(1e3 * r.max_gap_norm_m, 3)} mm.", ""]
 
 
+#: How an engineer names each identified input and reads its values: label, factor from SI, unit.
+_INPUTS = {"messenger_tension_n": ("messenger tension T_MW", 1.0, "N"),
+           "contact_tension_n": ("contact tension T_CW", 1.0, "N"),
+           "system_height_m": ("system height ΔH", 1e3, "mm")}
+
+
+def engineer_input(parameter: str) -> tuple[str, float, str]:
+    """An input's name as an engineer says it, the factor from its SI value and the unit read
+    (``dropper_3_length_m`` → "dropper 3 length", 1000, "mm"); an unknown name stays as it is."""
+    if parameter.startswith("dropper_") and parameter.endswith("_length_m"):
+        return f"dropper {parameter.split('_')[1]} length", 1e3, "mm"
+    return _INPUTS.get(parameter, (parameter, 1.0, "SI"))
+
+
+def _in_unit(value: float, factor: float, unit: str) -> str:
+    """A value in an engineer's unit: 0.1 mm, 1 N."""
+    if value is None or not np.isfinite(value):
+        return "–"
+    x = float(value) * factor
+    return f"{x:.1f}" if unit == "mm" else f"{x:.0f}" if unit == "N" else _number(x)
+
+
+def _effect_size(name: str, value: float) -> str:
+    """A named effect's parameter in an engineer's unit: lengths in mm, forces in N, fractions in %."""
+    if name.endswith("_m"):
+        return f"{1e3 * value:.3g} mm"
+    if name.endswith("_n"):
+        return f"{value:.4g} N"
+    if name.endswith("_fraction"):
+        return f"{100 * value:.3g} %"
+    return _number(value)
+
+
 def identification_lines(s_opt: pd.DataFrame, model_error: pd.DataFrame | None = None) -> list[str]:
     """The Table 2 analogue: μ and σ of every identified input with their standard errors and,
     where the correction's model-error budget was measured, the 95 % total intervals and the
@@ -97,8 +131,8 @@ def identification_lines(s_opt: pd.DataFrame, model_error: pd.DataFrame | None =
     status = sorted(set(s_opt["status"].astype(str)))
     converged = bool(s_opt["converged"].astype(bool).all())
     lines = [f"**Identification (Table 2 analogue):** optimiser {'converged' if converged else 'NOT converged'}, "
-             f"status {', '.join(status)}. Values in SI units (lengths [m], tension [N]); the dropper "
-             "means are held at the nominal table unless configured free.", ""]
+             f"status {', '.join(status)}. Lengths and heights in mm, tensions in N (the files keep SI); the "
+             "dropper means are held at the nominal table unless configured free.", ""]
     budget = model_error is not None and len(model_error) > 0
     if budget:
         lines += ["The 95 % total intervals add to the statistical one the correction's model error (the "
@@ -109,13 +143,14 @@ def identification_lines(s_opt: pd.DataFrame, model_error: pd.DataFrame | None =
     rows = []
     for r in s_opt.itertuples():
         fixed = bool(getattr(r, "mu_fixed", False))
-        row = [r.parameter, _number(r.mu, 6), "held fixed" if fixed else _number(r.mu_se, 3),
-               _number(r.sigma, 4), _number(r.sigma_se, 3)]
+        label, factor, unit = engineer_input(r.parameter)
+        value = partial(_in_unit, factor=factor, unit=unit)
+        row = [f"{label} [{unit}]", value(r.mu), "held fixed" if fixed else value(r.mu_se), value(r.sigma),
+               value(r.sigma_se)]
         if budget:
             for statistic in ("mu", "sigma"):
                 low, high = getattr(r, f"{statistic}_total_low"), getattr(r, f"{statistic}_total_high")
-                digits = 6 if statistic == "mu" else 4                   # as the μ and σ columns
-                row.append("–" if not np.isfinite(low) else f"[{_number(low, digits)}, {_number(high, digits)}]")
+                row.append("–" if not np.isfinite(low) else f"[{value(low)}, {value(high)}]")
             row.append("; ".join(f"{stat}: {dominant[(r.parameter, key)][0]}" for key, stat in (("mu", "μ"), ("sigma", "σ"))
                                  if dominant.get((r.parameter, key), ("", 0))[0]))
         rows.append(row)
@@ -133,7 +168,7 @@ def diagnosis_lines(findings: pd.DataFrame | None) -> list[str]:
     for r in findings.itertuples():
         if r.verdict == "named":
             params = json.loads(r.parameters) if isinstance(r.parameters, str) and r.parameters else {}
-            sizes = ", ".join(f"{k} = {_number(v[0])} ± {_number(v[1], 2)}" for k, v in params.items())
+            sizes = ", ".join(f"{k} = {_effect_size(k, v[0])} ± {_effect_size(k, v[1])}" for k, v in params.items())
             text = (f"step {r.step}: **{r.effect}** named (p = {_number(r.p_value, 2)}, runner-up {r.runner_up}"
                     f"{'; ' + sizes if sizes else ''})")
         elif r.verdict == "ambiguous":

@@ -14,8 +14,11 @@ allocated had moved it from 26 to 36 s.
 at 256 MB: arrays below 32 MB are carved from the heap and its freed memory is reused. The
 price is a process's resident memory staying near its peak: on the 1 000-span line of ``make
 bench-line`` a job's peak resident memory rose by 4–17 % (the diagnosis 1 190 → 1 279 MB, the
-registration 454 → 531 MB; 2026-11-27, one run with it and one without). ``import catenary`` calls it once;
-elsewhere than glibc (macOS, musl, Windows) it does nothing.
+registration 454 → 531 MB; 2026-11-27, one run with it and one without). It is a choice for a
+whole process, so a process makes it where it starts — every rule script, the benchmarks
+(``benchmarks/record.py``) and the tests (``tests/conftest.py``) — never ``import catenary``: a
+library must leave its caller's allocator as it found it. Elsewhere than glibc (macOS, musl,
+Windows) it does nothing.
 """
 
 from __future__ import annotations

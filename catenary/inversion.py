@@ -281,12 +281,11 @@ def min_correlation(matrix: np.ndarray, first: int, last: int) -> float:
 
 def pearson_figure(matrix: np.ndarray, path: str | Path, title: str) -> Path:
     """Write the correlation matrix of the dropper lengths as an annotated heat map (PNG)."""
-    from .plots import save_figure  # sets the Agg backend before pyplot loads
-    import matplotlib.pyplot as plt
+    from .plots import save_figure, subplots
 
     m = np.asarray(matrix, dtype=float)
     n = m.shape[0]
-    fig, ax = plt.subplots(figsize=(6.4, 5.4))
+    fig, ax = subplots(figsize=(6.4, 5.4))
     image = ax.imshow(np.ma.masked_invalid(m), vmin=-1.0, vmax=1.0, cmap="RdBu_r")
     for i in range(n):
         for j in range(n):

@@ -1,19 +1,20 @@
-"""Figures for people: matplotlib (Agg backend), one function per figure, files written as PNG.
+"""Figures for people: matplotlib, one function per figure, files written as PNG.
 
-Plotting only; every number drawn here is computed elsewhere in the package.
+Plotting only; every number drawn here is computed elsewhere in the package. Figures are
+:class:`matplotlib.figure.Figure` objects made by :func:`subplots`, never through pyplot: no
+backend is chosen and no global figure registry touched, so importing the package (or drawing
+with it) leaves a caller's Matplotlib as it was; ``savefig`` writes a PNG through the Agg canvas
+whatever the caller's backend.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
 import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from .sensitivity import SensitivityResult  # noqa: E402
+from .sensitivity import SensitivityResult
 
 MM = 1e3
 
@@ -46,7 +47,7 @@ def sensitivity_figures(result: SensitivityResult, out_dir: str | Path) -> list[
     for v in result.variations:
         by_fig.setdefault(v.figure, []).append(v.name)
 
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), sharey=True)
+    fig, axes = subplots(1, 2, figsize=(12, 4.5), sharey=True)
     cw = [n for n in by_fig["fig2"] if n.startswith("contact")]
     mw = [n for n in by_fig["fig2"] if n.startswith("messenger")]
     for ax, names, title in ((axes[0], cw, "T_CW ±20 %"), (axes[1], mw, "T_MW ±20 %")):
@@ -55,7 +56,7 @@ def sensitivity_figures(result: SensitivityResult, out_dir: str | Path) -> list[
     paths.append(save_figure(fig, out_dir / "fig2_tensions.png"))
 
     (sa,) = by_fig["fig3"]
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, axes = subplots(1, 2, figsize=(12, 4.5))
     x = result.x_m
     v = result.variation(sa)
     axes[0].plot(x, result.nominal.cw_height_at(x), "k-", label="nominal")
@@ -73,20 +74,25 @@ def sensitivity_figures(result: SensitivityResult, out_dir: str | Path) -> list[
     paths.append(save_figure(fig, out_dir / "fig3_steady_arms.png"))
 
     (dh,) = by_fig["fig4"]
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = subplots(figsize=(7, 4.5))
     _span_axes(ax, result, f"{name}: ΔH_left +5 cm, ΔH_right −5 cm")
     _plot_w(ax, result, [dh])
     paths.append(save_figure(fig, out_dir / "fig4_system_height.png"))
     return paths
 
 
+def subplots(nrows: int = 1, ncols: int = 1, *, figsize=None, **kwargs):
+    """A figure and its axes, as :func:`matplotlib.pyplot.subplots` gives them, without pyplot."""
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(nrows, ncols, **kwargs)
+
+
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
-    """Lay out ``fig``, write it as PNG at ``path`` (creating its folder) and close it."""
+    """Lay out ``fig`` and write it as PNG at ``path`` (creating its folder)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
-    plt.close(fig)
     return path
 
 
@@ -98,7 +104,7 @@ def dynamics_figure(runs: dict, mast_chainage_m, window_m: tuple[float, float], 
 
     from .contact_statistics import lowpass
 
-    fig, (ax_f, ax_u) = plt.subplots(2, 1, figsize=(11, 7), sharex=True)
+    fig, (ax_f, ax_u) = subplots(2, 1, figsize=(11, 7), sharex=True)
     for label, run in runs.items():
         dt = float(run.time_s[1] - run.time_s[0])
         line, = ax_f.plot(run.chainage_m, run.contact_force_n, lw=0.5, alpha=0.35, label=f"{label} (raw)")

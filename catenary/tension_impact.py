@@ -216,12 +216,11 @@ def tension_impact(span_type: SpanType, catenary: Catenary, pantograph: Pantogra
 def tension_impact_figure(result: TensionImpactResult, path: str | Path) -> Path:
     """Write the Fig. 6 analogue: static and measured sags of both models, and their
     difference [mm], along the central span (PNG)."""
-    from .plots import save_figure  # sets the Agg backend before pyplot loads
-    import matplotlib.pyplot as plt
+    from .plots import save_figure, subplots
 
     t = result.messenger_tensions_n / 1e3
     s = result.settings
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 7), sharex=True, height_ratios=[2, 1])
+    fig, (top, bottom) = subplots(2, 1, figsize=(9, 7), sharex=True, height_ratios=[2, 1])
     for x in result.dropper_x_m:
         for ax in (top, bottom):
             ax.axvline(x, color="0.85", lw=0.6, zorder=0)

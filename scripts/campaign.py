@@ -8,6 +8,9 @@ from catenary.logs import rule_logger
 from catenary.parquet import config_hash, read_table, write_table
 from catenary.recording import RECORDING_SCHEMA
 from catenary.truth import draw_line, load_truth
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("campaign", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -7,6 +7,9 @@ from catenary.campaign import write_recording_csv
 from catenary.logs import rule_logger
 from catenary.parquet import read_table
 from catenary.shipped import copy_out
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("campaign_copy", snakemake.log[0])
 copy_out(snakemake.params.folder, Path(snakemake.output.recording).parent)

@@ -9,6 +9,9 @@ from catenary.pantograph import load_pantographs
 from catenary.parquet import config_hash, write_table
 from catenary.recording import RECORDING_SCHEMA
 from catenary.truth import draw_line, load_truth
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("campaign_section", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -15,6 +15,9 @@ from catenary.contact_force.summary import criteria_summary, tolerance_table
 from catenary.logs import rule_logger
 from catenary.pantograph import load_pantographs
 from catenary.parquet import read_table, settings_hash
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("contact_force", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -12,6 +12,9 @@ from catenary.contact_force.settings import ContactForceSettings, batch_replicat
 from catenary.logs import rule_logger
 from catenary.pantograph import load_pantographs
 from catenary.parquet import settings_hash, write_table
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("contact_force_batch", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -11,6 +11,9 @@ from catenary.model_error.correction import run_shifts, shift_columns
 from catenary.model_error.sources import ModelErrorSettings
 from catenary.pantograph import load_pantographs
 from catenary.parquet import read_table, settings_hash, write_table
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("correct_section", snakemake.log[0])
 section_id = snakemake.wildcards.section_id

@@ -9,6 +9,9 @@ from catenary.correction import corrected_of_type, corrected_schema, correction_
 from catenary.logs import rule_logger
 from catenary.model_error.budget import w_budget
 from catenary.parquet import read_table, settings_hash, write_table
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("correction", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -36,6 +36,9 @@ from catenary.model_error.propagation import span_shifts  # noqa: E402
 from catenary.model_error.sources import ModelErrorSettings  # noqa: E402
 from catenary.pantograph import load_pantographs  # noqa: E402
 from catenary.parquet import read_table  # noqa: E402
+from catenary.heap import steady_heap  # noqa: E402
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("diagnose", snakemake.log[0])
 own = load_modules(snakemake.params.effects_modules)

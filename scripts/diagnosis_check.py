@@ -9,6 +9,9 @@ from catenary.diagnosis.validation import diagnosis_check
 from catenary.logs import rule_logger
 from catenary.parquet import read_table
 from catenary.truth import load_truth
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("diagnosis_check", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

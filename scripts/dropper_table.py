@@ -5,6 +5,9 @@ import pandas as pd
 from catenary.config import load_catenary
 from catenary.dropper_table import nominal_dropper_lengths
 from catenary.logs import rule_logger
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("dropper_table", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

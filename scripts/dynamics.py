@@ -11,6 +11,9 @@ from catenary.logs import rule_logger
 from catenary.pantograph import load_pantographs
 from catenary.plots import dynamics_figure
 from catenary.section import uniform_section
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("dynamics", snakemake.log[0])
 p = snakemake.params.dynamics

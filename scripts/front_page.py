@@ -3,6 +3,9 @@
 from catenary.front_page import write_front_page
 from catenary.logs import rule_logger
 from catenary.registration import RegistrationSettings
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("front_page", snakemake.log[0])
 inputs = dict(snakemake.input.items())

@@ -14,6 +14,9 @@ from catenary.logs import rule_logger
 from catenary.model_error.propagation import span_shifts
 from catenary.parquet import read_table, settings_hash
 from catenary.repeatability import read_noise
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("identify", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

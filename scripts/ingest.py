@@ -3,6 +3,9 @@
 from catenary.logs import rule_logger
 from catenary.parquet import settings_hash
 from catenary.recording import read_masts, read_recordings, runs_table, write_masts, write_recording
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("ingest", snakemake.log[0])
 digest = settings_hash(snakemake.config)

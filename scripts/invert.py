@@ -9,6 +9,9 @@ from catenary.inversion import (converged_spans, dropper_statistics, droppers_sc
                                 min_correlation, pearson_figure, pearson_matrix, w_columns)
 from catenary.logs import rule_logger
 from catenary.parquet import read_table, settings_hash, write_table
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("invert", snakemake.log[0])
 p = snakemake.params.inversion

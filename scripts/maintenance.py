@@ -13,6 +13,9 @@ from catenary.model_error.propagation import span_shifts
 from catenary.maintenance.outputs import write_bands, write_maintenance
 from catenary.parquet import read_table, settings_hash
 from catenary.repeatability import read_noise
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("maintenance", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -5,6 +5,9 @@ import pandas as pd
 from catenary.logs import rule_logger
 from catenary.maintenance.validation import coverage_check, list_check
 from catenary.parquet import read_table
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("maintenance_check", snakemake.log[0])
 truth = read_table(snakemake.input.truth)

@@ -8,6 +8,9 @@ from catenary.logs import rule_logger
 from catenary.maintenance.repair import fixing_buys, repair_summary
 from catenary.pantograph import load_pantographs
 from catenary.parquet import read_table
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("maintenance_repair", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -15,6 +15,9 @@ from catenary.recording import read_masts, runs_table
 from catenary.registration import RegistrationSettings
 from catenary.registration.lag import measuring_lag
 from catenary.registration.outputs import read_registration
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("project", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

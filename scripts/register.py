@@ -11,6 +11,9 @@ from catenary.recording import run_samples, validate_masts
 from catenary.registration import RegistrationSettings, masts_from_trace, register_run, unregistered_run
 from catenary.registration.lag import measuring_lag
 from catenary.registration.outputs import registration_figure, write_registration
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("register", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

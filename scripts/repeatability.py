@@ -4,6 +4,9 @@ by several runs, and the spans whose runs disagree beyond it."""
 from catenary.logs import rule_logger
 from catenary.parquet import read_table
 from catenary.repeatability import estimate_repeatability
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("repeatability", snakemake.log[0])
 corrected = read_table(snakemake.input.corrected)

@@ -6,6 +6,9 @@ import pandas as pd
 from catenary.logs import rule_logger
 from catenary.parquet import read_table
 from catenary.truth_checks import repeatability_round_trip
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("repeatability_check", snakemake.log[0])
 truth = read_table(snakemake.input.truth)

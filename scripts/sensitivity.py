@@ -8,6 +8,9 @@ from catenary.config import load_catenary
 from catenary.logs import rule_logger
 from catenary.plots import sensitivity_figures
 from catenary.sensitivity import run_sensitivity
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("sensitivity", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

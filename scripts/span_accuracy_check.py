@@ -9,6 +9,9 @@ from catenary.logs import rule_logger
 from catenary.parquet import read_table
 from catenary.truth import load_truth
 from catenary.truth_checks import span_accuracy_round_trip
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("span_accuracy_check", snakemake.log[0])
 spec = load_truth(snakemake.input.campaign, load_catenary(snakemake.input.catenary))

@@ -7,6 +7,9 @@ from catenary.diagnosis.validation import span_check_validation
 from catenary.logs import rule_logger
 from catenary.parquet import read_table
 from catenary.truth import load_truth
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("spans_check", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

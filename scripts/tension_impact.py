@@ -5,6 +5,9 @@ from catenary.config import load_catenary
 from catenary.logs import rule_logger
 from catenary.pantograph import load_pantographs
 from catenary.tension_impact import tension_impact, tension_impact_figure
+from catenary.heap import steady_heap
+
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
 
 log = rule_logger("tension_impact", snakemake.log[0])
 p = snakemake.params.tension_impact

@@ -2,14 +2,17 @@
 
 One BLAS thread per process unless the caller set one, before NumPy loads
 (:mod:`catenary.blas`; measured: the diagnosis's workers test 59.5 s with OpenBLAS's default
-threads, 10.8 s with one; the restart test 34.5 s and 4.8 s).
+threads, 10.8 s with one; the restart test 34.5 s and 4.8 s), and the steady heap
+(:mod:`catenary.heap`), as the rule scripts set both where their process starts.
 """
 
 import sys
 
 from catenary.blas import one_blas_thread
+from catenary.heap import steady_heap
 
 one_blas_thread(override=False)
+steady_heap()
 if "numpy" in sys.modules:                 # too late for the BLAS threads: say so, do not hide it
     import warnings
 

@@ -29,8 +29,11 @@ def test_front_page_says_what_each_table_says_and_is_valid_rst():
                       {"N2": FINDINGS})
     assert "3 used, 1 rejected (1 × gap of 9.0 m in the recording)" in page
     assert "2 of 3 spans converged" in page and "largest final gap 2.1 mm" in page
-    assert "20536.5" in page and "799.9" in page and "160" in page and "held fixed" in page
-    assert "**messenger_tension_variability** named (p = 1.7e-115" in page and "std_n = 833.2 ± 58" in page
+    # in an engineer's units and words (the files keep SI): a dropper in mm, a tension in N
+    assert "dropper 1 length [mm]" in page and "1243.0" in page and "6.3" in page and "1.3" in page
+    assert "messenger tension T_MW [N]" in page and "20536" in page and "800" in page and "160" in page
+    assert "held fixed" in page and "_length_m" not in page
+    assert "**messenger_tension_variability** named (p = 1.7e-115" in page and "std_n = 833.2 N ± 57.6 N" in page
     assert "ambiguous between **dropper_creep** and **cw_longitudinal_offset**" in page
     assert "step 3: no missing effect detected" in page
     assert "{{" not in page                                          # Snakemake renders it with Jinja first
@@ -64,7 +67,7 @@ def test_front_page_carries_the_total_intervals_and_says_the_cars_caveat_once():
     recs = pd.DataFrame([row, {**row, "option": "wear_channel", "recommended": False}])
     page = front_page("T\n=\n", SPANS, CORRECTION, {"N2": s_opt, "N3": s_opt}, {"N2": findings, "N3": findings},
                       {"N2": budget, "N3": budget}, recommendations={"N2": recs, "N3": recs.assign(power=0.9)})
-    assert "[20120, 20960]" in page and "[550, 1240]" in page and "[0.0035, 0.011]" in page
+    assert "[20120, 20960]" in page and "[550, 1240]" in page and "[3.5, 11.0]" in page
     assert "μ: measuring_force; σ: speed" in page and "σ: head_mass" in page
     assert page.count("W alone cannot tell a measuring force 2 N off the declared one") == 1
     assert "static force of the measuring pantograph once (1 h), predicted power 1.00 on N2, 0.90 on N3" in page

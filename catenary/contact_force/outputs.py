@@ -74,10 +74,10 @@ def _limit_value(criterion: str, speed: float, settings: ContactForceSettings, m
 
 
 def histogram_figure(replicates: pd.DataFrame, nominal: pd.DataFrame, settings: ContactForceSettings, path, title):
-    from ..plots import plt, save_figure
+    from ..plots import save_figure, subplots
     data = replicates[replicates["case"] == "identified"]
     shown = [c for c in CRITERIA if c != "contact_loss_percent"]
-    fig, axes = plt.subplots(2, 4, figsize=(16, 7))
+    fig, axes = subplots(2, 4, figsize=(16, 7))
     for ax, c in zip(axes.ravel(), shown):
         for k, (speed, group) in enumerate(data.groupby("speed_kmh")):
             scale = 1e3 if c.endswith("_m") else 1.0
@@ -99,8 +99,8 @@ def histogram_figure(replicates: pd.DataFrame, nominal: pd.DataFrame, settings: 
 
 
 def sobol_figure(results: list[SobolResult], path, title):
-    from ..plots import plt, save_figure
-    fig, axes = plt.subplots(1, max(1, len(results)), figsize=(6 * max(1, len(results)), 4), squeeze=False)
+    from ..plots import save_figure, subplots
+    fig, axes = subplots(1, max(1, len(results)), figsize=(6 * max(1, len(results)), 4), squeeze=False)
     for ax, r in zip(axes[0], results):
         x = np.arange(len(r.groups))
         ax.bar(x - 0.2, r.first, 0.4, yerr=np.abs(r.first_interval.T - r.first), capsize=3,
@@ -118,8 +118,8 @@ def sobol_figure(results: list[SobolResult], path, title):
 
 
 def tolerance_figure(table: pd.DataFrame, path, title):
-    from ..plots import plt, save_figure
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    from ..plots import save_figure, subplots
+    fig, ax = subplots(figsize=(7, 4.5))
     for k, (sigma, group) in enumerate(table.groupby("messenger_tension_sigma_n")):
         for j, (name, style) in enumerate((("std_above_limit", "-o"), ("statistical_min_below_limit", "--s"))):
             p = 100 * group[f"p_{name}"]
@@ -208,7 +208,7 @@ def write_contact_force(paths: ContactForcePaths, span_type: str, settings: Cont
                         replicates: pd.DataFrame, nominal: pd.DataFrame, summary: pd.DataFrame,
                         tolerance: pd.DataFrame, sobol: list[SobolResult],
                         laws_summary: dict, *, config_hash: str) -> None:
-    from ..plots import plt, save_figure
+    from ..plots import save_figure, subplots
     for p in paths.__dict__.values():
         Path(p).parent.mkdir(parents=True, exist_ok=True)
     write_table(replicates, paths.replicates, replicates_schema(replicates.columns), config_hash=config_hash,
@@ -223,7 +223,7 @@ def write_contact_force(paths: ContactForcePaths, span_type: str, settings: Cont
     if sobol:
         sobol_figure(sobol, paths.sobol, f"{span_type}: variance shares of the contact-force criteria")
     else:
-        fig, ax = plt.subplots(figsize=(6, 1.5))
+        fig, ax = subplots(figsize=(6, 1.5))
         ax.text(0.5, 0.5, SENSITIVITY_SKIPPED, ha="center", va="center", wrap=True)
         ax.axis("off")
         save_figure(fig, paths.sobol)
@@ -231,7 +231,7 @@ def write_contact_force(paths: ContactForcePaths, span_type: str, settings: Cont
         tolerance_figure(tolerance, paths.tolerance_figure, f"{span_type}: maintenance tolerances at "
                          f"{settings.tolerance.speed_kmh:g} km/h")
     else:
-        fig, ax = plt.subplots()
+        fig, ax = subplots()
         ax.text(0.5, 0.5, "no tolerance study configured", ha="center")
         ax.axis("off")
         save_figure(fig, paths.tolerance_figure)

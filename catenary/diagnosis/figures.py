@@ -10,14 +10,14 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from ..plots import plt, save_figure
+from ..plots import save_figure, subplots
 
 __all__ = ["eigenvalue_figure", "qq_figure", "residual_figure", "score_figure", "spans_figure"]
 
 
 def _panels(run, height: float = 3.6):
     n = max(1, len(run.steps))
-    fig, axes = plt.subplots(1, n, figsize=(5.2 * n, height), squeeze=False)
+    fig, axes = subplots(1, n, figsize=(5.2 * n, height), squeeze=False)
     return fig, axes[0]
 
 
@@ -114,7 +114,7 @@ def spans_figure(spans, sections, path: str | Path, title: str, fdr: float) -> P
     """Along the chainage: each span's −log₁₀ p (its W and profile together) against the
     false-discovery line, unexplained spans and the sections flagged as one group marked; below,
     where each unexplained span's profile departs most from the model and by how much [mm]."""
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(11, 5.6), sharex=True, height_ratios=[2, 1])
+    fig, (top, bottom) = subplots(2, 1, figsize=(11, 5.6), sharex=True, height_ratios=[2, 1])
     mid = 0.5 * (spans["start_chainage_m"] + spans["end_chainage_m"]).to_numpy(dtype=float)
     p = np.clip(spans["p_value"].to_numpy(dtype=float), 1e-300, 1.0)
     bad = spans["unexplained"].to_numpy(dtype=bool)

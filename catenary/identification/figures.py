@@ -1,4 +1,4 @@
-"""Figures of the identification (matplotlib, Agg backend): plotting only, the numbers come from
+"""Figures of the identification (matplotlib, :func:`catenary.plots.subplots`): plotting only, the numbers come from
 :mod:`.report` and :mod:`.band`.
 
 * :func:`estimators_figure` — Gaussian (dashed) against kernel (solid) marginals of W at the
@@ -12,14 +12,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ..plots import save_figure  # noqa: E402
-from .band import DeflectionBand  # noqa: E402
-from .runner import MarginalDensities  # noqa: E402
+from ..plots import save_figure, subplots
+from .band import DeflectionBand
+from .runner import MarginalDensities
 
 __all__ = ["band_figure", "estimators_figure"]
 
@@ -43,8 +40,8 @@ def estimators_figure(marginals: list[MarginalDensities], data_w_m: np.ndarray, 
     n = marginals[0].grid_m.shape[1]
     ncols = 3
     nrows = int(np.ceil(n / ncols))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(12, 3.0 * nrows + 0.6), squeeze=False)
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig, axes = subplots(nrows, ncols, figsize=(12, 3.0 * nrows + 0.6), squeeze=False)
+    colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     data = np.atleast_2d(np.asarray(data_w_m, dtype=float))
     for i in range(nrows * ncols):
         ax = axes.flat[i]
@@ -85,7 +82,7 @@ def band_figure(band: DeflectionBand, data_w_m: np.ndarray, dropper_positions_m:
     """
     data = np.atleast_2d(np.asarray(data_w_m, dtype=float))
     x_d = np.asarray(dropper_positions_m, dtype=float)
-    fig, ax = plt.subplots(figsize=(11, 5))
+    fig, ax = subplots(figsize=(11, 5))
     for x in x_d:
         ax.axvline(x, color="0.85", lw=0.6, zorder=0)
     lo, hi = 50 * (1 - band.level), 50 * (1 + band.level)

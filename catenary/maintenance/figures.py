@@ -1,4 +1,4 @@
-"""Figure of the maintenance stage (matplotlib, Agg backend): plotting only.
+"""Figure of the maintenance stage (matplotlib, :func:`catenary.plots.subplots`): plotting only.
 
 :func:`chainage_figure` — along the chainage, each span's most likely deviation (the dropper
 most likely out of tolerance: its posterior mean less nominal, with the 90 % interval), the
@@ -9,14 +9,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from ..plots import save_figure  # noqa: E402
+from ..plots import save_figure, subplots
 
 __all__ = ["chainage_figure", "population_band_figure"]
 
@@ -46,7 +42,7 @@ def chainage_figure(posterior: pd.DataFrame, threshold: float, path: str | Path,
     hi = MM * (top["q95"] - top["nominal"]).to_numpy()
     listed = top["p_out_of_tolerance"].to_numpy() > threshold
     half = MM * float((top["upper"] - top["nominal"]).iloc[0]) if len(top) else np.nan
-    fig, ax = plt.subplots(figsize=(10, 4))
+    fig, ax = subplots(figsize=(10, 4))
     for mask, colour, label in ((~listed, "0.35", "most likely deviation of the span, 90 % interval"),
                                 (listed, "tab:red", f"listed: P(out of tolerance) > {threshold:g}")):
         if mask.any():
@@ -79,7 +75,7 @@ def population_band_figure(bands, w_obs_m: np.ndarray, dropper_positions_m: np.n
     dropper_positions_m : numpy.ndarray, shape (n,)
     path : str or pathlib.Path
     """
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, ax = subplots(figsize=(9, 4))
     if bands is None:
         ax.text(0.5, 0.5, "no posterior band: maintenance.band_draws_per_span is 0", ha="center", va="center")
         ax.set_axis_off()

@@ -56,12 +56,10 @@ def read_registration(masts_path: str | Path, sections_path: str | Path, directi
 def registration_figure(masts: pd.DataFrame, path: str | Path) -> None:
     """Residual of each matched mast along the line, one panel row per run; masts missing from or
     extra in the table marked."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from ..plots import save_figure, subplots
 
     runs = list(dict.fromkeys(masts["run_id"]))
-    fig, axes = plt.subplots(max(len(runs), 1), 1, figsize=(10, 2.4 * max(len(runs), 1)), squeeze=False, sharex=True)
+    fig, axes = subplots(max(len(runs), 1), 1, figsize=(10, 2.4 * max(len(runs), 1)), squeeze=False, sharex=True)
     for ax, run in zip(axes[:, 0], runs):
         part = masts[masts["run_id"] == run]
         matched = part[part["status"] == "matched"]
@@ -76,6 +74,4 @@ def registration_figure(masts: pd.DataFrame, path: str | Path) -> None:
         ax.legend(fontsize=7, loc="upper right", ncols=4)
     axes[-1, 0].set_xlabel("chainage of the mast table [m]")
     fig.suptitle("Registration of the mast table onto each run's trace")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
