@@ -5,7 +5,7 @@
 #    (nothing to do after `make test-pipeline`).
 # 2. A one-node SLURM cluster on loopback (Debian's packages; tests/cluster/slurm_cluster.sh).
 # 3. The same settings through `--workflow-profile workflow/profiles/slurm`, into results/cluster,
-#    on the local run's recording and survey: ingest → projection → correction → identification, every job
+#    on the local run's recording: ingest → projection → correction → identification, every job
 #    an sbatch job. Every result file must equal the local run's byte for byte (the reports'
 #    wall times masked: tests/cluster/compare.py).
 # 4. A throw-away config with a broken pantographs file: the cluster run must fail, naming the
@@ -86,7 +86,6 @@ SLURM_TEST_ARGS=(--slurm-no-account --slurm-status-command squeue --slurm-init-s
 
 cat >"$work/cluster.yaml" <<EOF
 results: $CLUSTER
-survey: $LOCAL/campaign/survey.csv
 EOF
 rm -rf "$CLUSTER" "$FAILING"
 step "cluster run: the same settings into $CLUSTER"

@@ -11,11 +11,13 @@ SPAN_TYPES = config["span_types"]
 RECORDING_FILES = config["recording"] if isinstance(config["recording"], list) else [config["recording"]]
 # A run on the virtual campaign's own recording: the validation rules compare with its truth.
 CAMPAIGN_RUN = any(str(path).startswith(f"{RESULTS}/campaign/") for path in RECORDING_FILES)
-# The crews' survey (docs/input_formats.md): a file, none, or `campaign` — the virtual campaign's
-# own survey when the recording is the campaign's, none otherwise (a user's recording, a test's).
+# The crews' survey (docs/input_formats.md): a file, none, or `campaign` — the survey a virtual
+# campaign writes beside its recording (…/campaign/survey.csv) when the recording is a campaign's,
+# none beside a user's recording.
 _SURVEY = config.get("survey")
-SURVEY_FILES = (([f"{RESULTS}/campaign/survey.csv"] if CAMPAIGN_RUN else []) if _SURVEY == "campaign"
-                else [_SURVEY] if _SURVEY else [])
+SURVEY_FILES = (sorted({os.path.join(os.path.dirname(str(p)), "survey.csv") for p in RECORDING_FILES
+                        if os.path.basename(os.path.dirname(str(p))) == "campaign"})[:1]
+                if _SURVEY == "campaign" else [_SURVEY] if _SURVEY else [])
 # The campaign's outputs shipped for these very files (data/default_campaign for make run) are
 # copied, not simulated, while the copy's manifest matches them (catenary.shipped).
 CAMPAIGN_COPY = config.get("campaign_copy")
