@@ -5,8 +5,8 @@ import sys
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version
 
-from catenary.errors import ConfigError
-from catenary.schema import check as check_config
+from catenary.plumbing.errors import ConfigError
+from catenary.plumbing.schema import check as check_config
 
 min_version("9.0")
 

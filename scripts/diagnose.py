@@ -8,7 +8,7 @@ start 6 spinning threads on 2 cores (measured: the small profile's diagnosis 4×
 they are reset here, before NumPy loads.
 """
 
-from catenary.blas import one_blas_thread
+from catenary.plumbing.blas import one_blas_thread
 
 one_blas_thread(override=True)
 
@@ -16,29 +16,29 @@ import dataclasses  # noqa: E402
 import numpy as np  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from catenary.config import load_catenary  # noqa: E402
-from catenary.diagnosis.candidates import register_plugins  # noqa: E402
-from catenary.diagnosis.span_effects import MeasuringSetup, span_candidates, test_span_effects  # noqa: E402
-from catenary.effects import load_modules  # noqa: E402
-from catenary.correction import CorrectionSettings  # noqa: E402
-from catenary.diagnosis.inputs import measuring_pass_of, profile_check_of  # noqa: E402
-from catenary.diagnosis.outputs import DiagnosisPaths, write_line_diagnosis  # noqa: E402
-from catenary.diagnosis.runner import diagnose_line  # noqa: E402
-from catenary.diagnosis.settings import DiagnosisSettings  # noqa: E402
-from catenary.identification.data import read_corrected, span_places  # noqa: E402
-from catenary.identification.settings import IdentificationSettings  # noqa: E402
-from catenary.logs import rule_logger  # noqa: E402
-from catenary.maintenance.settings import MaintenanceSettings  # noqa: E402
-from catenary.channels.assemble import read_observations  # noqa: E402
-from catenary.channels.settings import MeasurementSettings  # noqa: E402
-from catenary.diagnosis.recommend import Extent, questions, recommend  # noqa: E402
-from catenary.model_error.propagation import span_shifts  # noqa: E402
-from catenary.model_error.sources import ModelErrorSettings  # noqa: E402
-from catenary.pantograph import load_pantographs  # noqa: E402
-from catenary.parquet import read_table  # noqa: E402
-from catenary.heap import steady_heap  # noqa: E402
+from catenary.measurement.channels.assemble import read_observations  # noqa: E402
+from catenary.measurement.channels.settings import MeasurementSettings  # noqa: E402
+from catenary.physics.config import load_catenary  # noqa: E402
+from catenary.physics.effects import load_modules  # noqa: E402
+from catenary.physics.pantograph import load_pantographs  # noqa: E402
+from catenary.plumbing.heap import steady_heap  # noqa: E402
+from catenary.plumbing.logs import rule_logger  # noqa: E402
+from catenary.plumbing.parquet import read_table  # noqa: E402
+from catenary.stages.correction import CorrectionSettings  # noqa: E402
+from catenary.stages.diagnosis.candidates import register_plugins  # noqa: E402
+from catenary.stages.diagnosis.inputs import measuring_pass_of, profile_check_of  # noqa: E402
+from catenary.stages.diagnosis.outputs import DiagnosisPaths, write_line_diagnosis  # noqa: E402
+from catenary.stages.diagnosis.recommend import Extent, questions, recommend  # noqa: E402
+from catenary.stages.diagnosis.runner import diagnose_line  # noqa: E402
+from catenary.stages.diagnosis.settings import DiagnosisSettings  # noqa: E402
+from catenary.stages.diagnosis.span_effects import MeasuringSetup, span_candidates, test_span_effects  # noqa: E402
+from catenary.stages.identification.data import read_corrected, span_places  # noqa: E402
+from catenary.stages.identification.propagation import span_shifts  # noqa: E402
+from catenary.stages.identification.settings import IdentificationSettings  # noqa: E402
+from catenary.stages.maintenance.settings import MaintenanceSettings  # noqa: E402
+from catenary.stages.model_error.sources import ModelErrorSettings  # noqa: E402
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("diagnose", snakemake.log[0])
 own = load_modules(snakemake.params.effects_modules)

@@ -2,12 +2,12 @@
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.logs import rule_logger
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("dropper_table", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -1,11 +1,11 @@
-"""Rule front_page: the HTML report's opening panel (catenary.front_page)."""
+"""Rule front_page: the HTML report's opening panel (catenary.report.front_page)."""
 
-from catenary.front_page import write_front_page
-from catenary.logs import rule_logger
-from catenary.registration import RegistrationSettings
-from catenary.heap import steady_heap
+from catenary.measurement.registration import RegistrationSettings
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.report.front_page import write_front_page
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("front_page", snakemake.log[0])
 inputs = dict(snakemake.input.items())

@@ -2,21 +2,21 @@
 
 from pathlib import Path
 
-from catenary.channels.assemble import IDENTIFIED_QUANTITIES, read_observations
-from catenary.channels.settings import MeasurementSettings
-from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings
-from catenary.identification.outputs import IdentificationPaths, write_identification
-from catenary.identification.data import read_corrected
-from catenary.identification.runner import run_identification
-from catenary.identification.settings import IdentificationSettings
-from catenary.logs import rule_logger
-from catenary.model_error.propagation import span_shifts
-from catenary.parquet import read_table, settings_hash
-from catenary.repeatability import read_noise
-from catenary.heap import steady_heap
+from catenary.measurement.channels.assemble import IDENTIFIED_QUANTITIES, read_observations
+from catenary.measurement.channels.settings import MeasurementSettings
+from catenary.measurement.repeatability import read_noise
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table, settings_hash
+from catenary.stages.correction import CorrectionSettings
+from catenary.stages.identification.data import read_corrected
+from catenary.stages.identification.outputs import IdentificationPaths, write_identification
+from catenary.stages.identification.propagation import span_shifts
+from catenary.stages.identification.runner import run_identification
+from catenary.stages.identification.settings import IdentificationSettings
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("identify", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -7,22 +7,22 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.channels.assemble import IDENTIFIED_QUANTITIES, read_observations
-from catenary.channels.settings import MeasurementSettings
-from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings
-from catenary.errors import InputError
-from catenary.identification.data import read_corrected
-from catenary.identification.runner import identify_laws
-from catenary.identification.settings import IdentificationSettings
-from catenary.identification.tables import laws_comparison, s_opt_table
-from catenary.logs import rule_logger
-from catenary.model_error.propagation import span_shifts
-from catenary.parquet import read_table
-from catenary.repeatability import read_noise
-from catenary.heap import steady_heap
+from catenary.measurement.channels.assemble import IDENTIFIED_QUANTITIES, read_observations
+from catenary.measurement.channels.settings import MeasurementSettings
+from catenary.measurement.repeatability import read_noise
+from catenary.physics.config import load_catenary
+from catenary.plumbing.errors import InputError
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.stages.correction import CorrectionSettings
+from catenary.stages.identification.data import read_corrected
+from catenary.stages.identification.propagation import span_shifts
+from catenary.stages.identification.runner import identify_laws
+from catenary.stages.identification.settings import IdentificationSettings
+from catenary.stages.identification.tables import laws_comparison, s_opt_table
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("identify_explained", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -3,15 +3,15 @@ Table 1, Fig. 8)."""
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.inversion import (converged_spans, dropper_statistics, droppers_schema, invert_spans,
+from catenary.physics.config import load_catenary
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.stages.inversion import (converged_spans, dropper_statistics, droppers_schema, invert_spans,
                                 min_correlation, pearson_figure, pearson_matrix, w_columns)
-from catenary.logs import rule_logger
-from catenary.parquet import read_table, settings_hash, write_table
-from catenary.heap import steady_heap
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table, settings_hash, write_table
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("invert", snakemake.log[0])
 p = snakemake.params.inversion

@@ -2,20 +2,20 @@
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.identification.data import read_corrected
-from catenary.identification.settings import IdentificationSettings
-from catenary.logs import rule_logger
-from catenary.maintenance.figures import chainage_figure, population_band_figure
-from catenary.maintenance.runner import run_maintenance
-from catenary.maintenance.settings import MaintenanceSettings
-from catenary.model_error.propagation import span_shifts
-from catenary.maintenance.outputs import write_bands, write_maintenance
-from catenary.parquet import read_table, settings_hash
-from catenary.repeatability import read_noise
-from catenary.heap import steady_heap
+from catenary.measurement.repeatability import read_noise
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table, settings_hash
+from catenary.stages.identification.data import read_corrected
+from catenary.stages.identification.propagation import span_shifts
+from catenary.stages.identification.settings import IdentificationSettings
+from catenary.stages.maintenance.figures import chainage_figure, population_band_figure
+from catenary.stages.maintenance.outputs import write_bands, write_maintenance
+from catenary.stages.maintenance.runner import run_maintenance
+from catenary.stages.maintenance.settings import MaintenanceSettings
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("maintenance", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

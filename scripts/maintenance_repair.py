@@ -2,15 +2,15 @@
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.contact_force.settings import ContactForceSettings
-from catenary.logs import rule_logger
-from catenary.maintenance.repair import fixing_buys, repair_summary
-from catenary.pantograph import load_pantographs
-from catenary.parquet import read_table
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.stages.contact_force.settings import ContactForceSettings
+from catenary.stages.maintenance.repair import fixing_buys, repair_summary
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("maintenance_repair", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

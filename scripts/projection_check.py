@@ -2,12 +2,12 @@
 
 import pandas as pd
 
-from catenary.logs import rule_logger
-from catenary.parquet import read_table
-from catenary.truth_checks import projection_round_trip
-from catenary.heap import steady_heap
+from catenary.measurement.truth_checks import projection_round_trip
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("projection_check", snakemake.log[0])
 truth = read_table(snakemake.input.truth)

@@ -1,12 +1,12 @@
 """Rule repeatability: the measurement's repeatability of one span type, from its spans measured
 by several runs, and the spans whose runs disagree beyond it."""
 
-from catenary.logs import rule_logger
-from catenary.parquet import read_table
-from catenary.repeatability import estimate_repeatability
-from catenary.heap import steady_heap
+from catenary.measurement.repeatability import estimate_repeatability
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("repeatability", snakemake.log[0])
 corrected = read_table(snakemake.input.corrected)

@@ -4,13 +4,12 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.logs import rule_logger
-from catenary.plots import sensitivity_figures
-from catenary.sensitivity import run_sensitivity
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.stages.sensitivity import run_sensitivity, sensitivity_figures
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("sensitivity", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

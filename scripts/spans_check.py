@@ -2,14 +2,14 @@
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.diagnosis.validation import span_check_validation
-from catenary.logs import rule_logger
-from catenary.parquet import read_table
-from catenary.truth import load_truth
-from catenary.heap import steady_heap
+from catenary.measurement.truth import load_truth
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.stages.diagnosis.validation import span_check_validation
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("spans_check", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

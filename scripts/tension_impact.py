@@ -1,13 +1,13 @@
 """Rule tension_impact: paper Fig. 6 analogue, measured sags of two catenaries with the same
 static sag at two messenger-wire tensions."""
 
-from catenary.config import load_catenary
-from catenary.logs import rule_logger
-from catenary.pantograph import load_pantographs
-from catenary.tension_impact import tension_impact, tension_impact_figure
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.stages.tension_impact import tension_impact, tension_impact_figure
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("tension_impact", snakemake.log[0])
 p = snakemake.params.tension_impact

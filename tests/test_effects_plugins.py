@@ -7,13 +7,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catenary.diagnosis.profile_check import ProfileNoise, ProfileSettings
-from catenary.diagnosis.span_effects import fit_span_effect, span_in_line
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.effects import EFFECTS, load_modules
-from catenary.errors import ConfigError
-from catenary.section import uniform_section
-from catenary.static import StaticModel
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.effects import EFFECTS, load_modules
+from catenary.physics.section import uniform_section
+from catenary.physics.static import StaticModel
+from catenary.plumbing.errors import ConfigError
+from catenary.stages.diagnosis.profile_check import ProfileNoise, ProfileSettings
+from catenary.stages.diagnosis.span_effects import fit_span_effect, span_in_line
 
 from .conftest import ROOT
 
@@ -23,7 +23,7 @@ EXAMPLE = ROOT / "docs" / "examples" / "concentrated_mass.py"
 def test_a_users_module_registers_its_effects(tmp_path):
     path = tmp_path / "mine.py"
     path.write_text(textwrap.dedent("""
-        from catenary.effects import Effect
+        from catenary.physics.effects import Effect
         def heavier_clamps(p, z, *, factor):
             p.dropper_lengths_m = p.dropper_lengths_m * (1.0 + 0.0 * factor)
         EFFECTS = [Effect("test_plugin_heavier_clamps", heavier_clamps, None)]
@@ -90,7 +90,7 @@ def test_the_worked_example_recovers_a_clamped_mass(catenary, n2):
 
 
 def _design(n2, catenary):
-    from catenary.effects import SpanParameters
+    from catenary.physics.effects import SpanParameters
     nominal = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
     return SpanParameters.independent_spans(
         nominal[None, :], [n2.messenger_tension_n], [n2.system_height_m], [n2.system_height_m],

@@ -1,11 +1,11 @@
-"""catenary.front_page: the report's opening panel, from the pipeline's own tables."""
+"""catenary.report.front_page: the report's opening panel, from the pipeline's own tables."""
 
 import json
 
 import pandas as pd
 from docutils.core import publish_parts
 
-from catenary.front_page import front_page
+from catenary.report.front_page import front_page
 
 SPANS = pd.DataFrame({"span_type": ["N2"] * 4, "status": ["used", "used", "used", "rejected"],
                       "reason": [None, None, None, "gap of 9.0 m in the recording"]})

@@ -11,23 +11,23 @@ import pyarrow.parquet as pq
 import pytest
 from scipy import stats
 
-from catenary.errors import ConfigError, ConvergenceError, InputError
-from catenary.identification.band import band_abscissae, deflection_band, sample_profiles
-from catenary.identification.design import draw_unit_design
-from catenary.identification.fit import identify, make_likelihood
-from catenary.identification.likelihood import Likelihood, fit_gaussian, kernel_bandwidth
-from catenary.identification.outputs import IdentificationPaths, write_identification
-from catenary.identification.data import read_corrected
-from catenary.identification.report import markdown_report
-from catenary.identification.runner import marginal_densities, normality_report, run_identification
-from catenary.identification.tables import S_OPT_COLUMNS
-from catenary.identification.settings import DETERMINISTIC_CV, IdentificationSettings
-from catenary.identification.synthetic import simulate_deflections
-from catenary.normality import henze_zirkler
-from catenary.parquet import read_metadata, write_table
-from catenary.fast import FastSpanModel
-from catenary.section import uniform_section
-from catenary.static import StaticModel
+from catenary.physics.fast import FastSpanModel
+from catenary.physics.section import uniform_section
+from catenary.physics.static import StaticModel
+from catenary.plumbing.errors import ConfigError, ConvergenceError, InputError
+from catenary.plumbing.parquet import read_metadata, write_table
+from catenary.stages.identification.band import band_abscissae, deflection_band, sample_profiles
+from catenary.stages.identification.data import read_corrected
+from catenary.stages.identification.design import draw_unit_design
+from catenary.stages.identification.fit import identify, make_likelihood
+from catenary.stages.identification.likelihood import Likelihood, fit_gaussian, kernel_bandwidth
+from catenary.stages.identification.normality import henze_zirkler
+from catenary.stages.identification.outputs import IdentificationPaths, write_identification
+from catenary.stages.identification.report import markdown_report
+from catenary.stages.identification.runner import marginal_densities, normality_report, run_identification
+from catenary.stages.identification.settings import DETERMINISTIC_CV, IdentificationSettings
+from catenary.stages.identification.synthetic import simulate_deflections
+from catenary.stages.identification.tables import S_OPT_COLUMNS
 
 MODE = "independent"
 
@@ -282,7 +282,7 @@ def test_read_corrected_says_which_used_spans_share_a_mast(tmp_path, n2):
 def test_report_says_how_spans_sharing_masts_widened_the_intervals(written, tmp_path):
     import dataclasses
 
-    from catenary.identification.profile import ProfileInterval
+    from catenary.stages.identification.profile import ProfileInterval
 
     run, _, _ = written
     assert "treated as independent" in markdown_report(run)     # no adjacency given to that run
@@ -367,8 +367,8 @@ def test_too_few_spans_are_refused_and_few_spans_warned_about(catenary, n2, data
     # 13 identified parameters (defaults: 11 σ, T_MW and ΔH means): 12 spans are refused before
     # any sampling, naming the counts and the settings to change; 13–38 spans (< 3 per
     # parameter) pass with a warning.
-    from catenary.errors import InputError
-    from catenary.identification.runner import check_span_count
+    from catenary.plumbing.errors import InputError
+    from catenary.stages.identification.runner import check_span_count
 
     settings = IdentificationSettings.from_mapping(SMALL)
     with pytest.raises(InputError, match=r"span type N2: 12 measured span\(s\) for 13 identified parameters; "

@@ -2,9 +2,9 @@ import os
 
 import yaml
 
-from catenary.schema import check as check_schema, merged_mapping
-from catenary.shipped import FILES as SHIPPED_FILES, MANIFEST as SHIPPED_MANIFEST, SOURCES as SHIPPED_SOURCES
-from catenary.shipped import matches as shipped_campaign_matches
+from catenary.plumbing.schema import check as check_schema, merged_mapping
+from catenary.measurement.shipped import FILES as SHIPPED_FILES, MANIFEST as SHIPPED_MANIFEST, SOURCES as SHIPPED_SOURCES
+from catenary.measurement.shipped import matches as shipped_campaign_matches
 
 RESULTS = config["results"]
 SPAN_TYPES = config["span_types"]
@@ -19,7 +19,7 @@ SURVEY_FILES = (sorted({os.path.join(os.path.dirname(str(p)), "survey.csv") for 
                         if os.path.basename(os.path.dirname(str(p))) == "campaign"})[:1]
                 if _SURVEY == "campaign" else [_SURVEY] if _SURVEY else [])
 # The campaign's outputs shipped for these very files (data/default_campaign for make run) are
-# copied, not simulated, while the copy's manifest matches them (catenary.shipped).
+# copied, not simulated, while the copy's manifest matches them (catenary.measurement.shipped).
 CAMPAIGN_COPY = config.get("campaign_copy")
 CAMPAIGN_COPIED, CAMPAIGN_COPY_WHY = shipped_campaign_matches(
     CAMPAIGN_COPY, {key: config[key] for key in SHIPPED_SOURCES}
@@ -45,7 +45,7 @@ CATENARY = _load_catenary_config()
 def _per_span_type_settings():
     """{block: {span type: settings}} for the blocks that `per_span_type` may override; each
     merged block is checked against the same schema as the global one."""
-    from catenary.errors import ConfigError
+    from catenary.plumbing.errors import ConfigError
 
     overrides = config.get("per_span_type") or {}
     unknown = sorted(set(overrides) - set(SPAN_TYPES))
@@ -228,7 +228,7 @@ def model_error_sections():
     import pandas as pd
     import pyarrow.parquet as pq
 
-    from catenary.model_error.sources import ModelErrorSettings
+    from catenary.stages.model_error.sources import ModelErrorSettings
 
     outputs = checkpoints.project.get().output.spans
     spans = pd.concat([pq.read_table(path, columns=["section_id"]).to_pandas().assign(span_type=span_type)
@@ -276,7 +276,7 @@ def maintenance_outputs(span_types=SPAN_TYPES):
 
 def contact_force_batches(span_type):
     """Batch files of the contact-force study of one span type (every case, every batch)."""
-    from catenary.contact_force.settings import ContactForceSettings, n_batches
+    from catenary.stages.contact_force.settings import ContactForceSettings, n_batches
 
     settings = ContactForceSettings.from_mapping(SPAN_TYPE_SETTINGS["contact_force"][span_type])
     n_droppers = len(CATENARY["span_types"][span_type]["dropper_positions_m"])

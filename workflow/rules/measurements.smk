@@ -3,7 +3,7 @@ if CAMPAIGN_COPIED:
     rule campaign_copy:
         """The campaign's outputs from the copy shipped for these very campaign, catenary and
         pantographs files (its manifest checked when the DAG is built, each file's SHA-256 here):
-        the simulation's files without simulating (catenary.shipped)."""
+        the simulation's files without simulating (catenary.measurement.shipped)."""
         input:
             files=[os.path.join(CAMPAIGN_COPY, name) for name in (SHIPPED_MANIFEST, *SHIPPED_FILES)],
             campaign=config["campaign"],
