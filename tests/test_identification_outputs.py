@@ -227,7 +227,8 @@ def test_report_names_the_run_figures(written):
     for needle in (f"{r.n_evaluations} by the optimiser", f"{r.n_hessian_evaluations} for the standard errors",
                    f"J(s0) | {run.j_start:.3f}", f"J(s_opt) | {r.j_opt:.3f}", "observed information",
                    "nelder-mead", "N = 1000", "seed 5", "left out M9-M10: test", "](band.png)",
-                   "](estimators.png)", "| T_MW |", "| ΔH |", "## 95 % intervals", "| T_MW | σ |",
+                   "](estimators.png)", "| messenger tension T_MW |", "| system height ΔH |", "## 95 % intervals",
+                   "| messenger tension T_MW | σ |", "| dropper 1 length |",
                    "Span model: the span as it hangs in the line"):
         assert needle in text, needle
     assert paths.band.stat().st_size > 0 and paths.estimators.stat().st_size > 0

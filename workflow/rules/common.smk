@@ -103,11 +103,17 @@ def later_laws(wildcards):
 
 
 FRONT_PAGE = f"{RESULTS}/report/front_page.rst"
+# `make own-data` (target `measurements`) runs no contact-force study: its front page is written
+# apart, by rule front_page_measurements, without the study's verdict and what fixing buys.
+FRONT_PAGE_MEASUREMENTS = f"{RESULTS}/report/front_page_measurements.rst"
 
 
-def front_page_inputs(wildcards):
-    """s_opt.csv, model_error.csv, findings.csv and the diagnosis' spans, sections and
-    recommendations of every measured span type, keyed s_opt_<type>, model_error_<type>, …"""
+def front_page_inputs(wildcards, contact_force=True):
+    """Per measured span type, what the front page reads, keyed <kind>_<type>: s_opt.csv,
+    model_error.csv, the diagnosis' findings, spans, sections and recommendations, the
+    maintenance list (unless `maintenance.enabled` is false) and, with ``contact_force``, the
+    contact-force summary and what fixing buys."""
+    maintenance = (config.get("maintenance") or {}).get("enabled", True)
     inputs = {}
     for span_type in measured_span_types():
         inputs[f"s_opt_{span_type}"] = f"{RESULTS}/{span_type}/identification/s_opt.csv"
@@ -116,7 +122,19 @@ def front_page_inputs(wildcards):
         inputs[f"spans_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/spans.csv"
         inputs[f"sections_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/sections.csv"
         inputs[f"recommendations_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/recommendations.csv"
+        if maintenance:
+            inputs[f"maintenance_{span_type}"] = f"{RESULTS}/{span_type}/maintenance/maintenance.csv"
+        if contact_force:
+            inputs[f"contact_force_{span_type}"] = f"{RESULTS}/{span_type}/contact_force/summary.csv"
+            if maintenance:
+                inputs[f"repair_{span_type}"] = f"{RESULTS}/{span_type}/maintenance/repair_summary.csv"
     return inputs
+
+
+def front_page_limits(wildcards):
+    """Per measured span type, its `contact_force` settings (the EN 50367 limits the front page
+    states)."""
+    return {t: SPAN_TYPE_SETTINGS["contact_force"][t] for t in measured_span_types()}
 
 
 def _campaign_sections():
@@ -211,7 +229,7 @@ def measured_outputs(wildcards=None, contact_force=True):
         outputs += contact_force_outputs(types)
         if (config.get("maintenance") or {}).get("enabled", True):
             outputs += expand(f"{RESULTS}/{{span_type}}/maintenance/repair_summary.csv", span_type=types)
-    return outputs + [FRONT_PAGE]
+    return outputs + [FRONT_PAGE if contact_force else FRONT_PAGE_MEASUREMENTS]
 
 
 def correction_sections(wildcards=None):

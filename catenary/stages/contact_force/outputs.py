@@ -21,6 +21,7 @@ from catenary.plumbing.parquet import write_table
 from .runs import CRITERIA, VIOLATIONS
 from .sensitivity import SOBOL_COLUMNS, SobolResult
 from .settings import ContactForceSettings
+from .summary import CRITERION_LABELS, violation_labels
 
 __all__ = ["ContactForcePaths", "SENSITIVITY_SKIPPED", "replicates_schema", "write_contact_force"]
 
@@ -147,7 +148,8 @@ def report_markdown(span_type: str, settings: ContactForceSettings, summary: pd.
              f"(dropper σ {', '.join(f'{1e3 * s:.1f}' for s in laws_summary['dropper_sigma_m'])} mm; T_MW "
              f"{laws_summary['messenger_tension_n'][0]:.0f} ± {laws_summary['messenger_tension_n'][1]:.0f} N per span; "
              f"ΔH {1e3 * laws_summary['system_height_m'][0]:.1f} ± {1e3 * laws_summary['system_height_m'][1]:.1f} mm "
-             f"per mast; steady arms {laws_summary['cw_height_m'][0]:.3f} ± {1e3 * laws_summary['cw_height_m'][1]:.0f} mm"
+             f"per mast; steady-arm heights {1e3 * laws_summary['cw_height_m'][0]:.0f} ± "
+             f"{1e3 * laws_summary['cw_height_m'][1]:.0f} mm"
              + (f"; named effects {laws_summary['effects']}" if laws_summary["effects"] else "")
              + f"), run over by the `{settings.pantograph}` pantograph; statistics between masts "
              f"{settings.analysis_masts[0]} and {settings.analysis_masts[1]}, force filtered at "
@@ -159,16 +161,13 @@ def report_markdown(span_type: str, settings: ContactForceSettings, summary: pd.
                   "| criterion | nominal | mean | σ | 5 % | 50 % | 95 % |", "|---|---:|---:|---:|---:|---:|---:|"]
         for c in CRITERIA:
             r = g.loc[c]
-            lines.append(f"| {c} | {nom[c]:.4g} | {r['mean']:.4g} | {r['std']:.3g} | {r['q05']:.4g} | {r['q50']:.4g} | "
-                         f"{r['q95']:.4g} |")
-        lim = settings.limits
+            label, factor, unit = CRITERION_LABELS[c]
+            lines.append(f"| {label} [{unit}] | {factor * nom[c]:.4g} | {factor * r['mean']:.4g} | "
+                         f"{factor * r['std']:.3g} | {factor * r['q05']:.4g} | {factor * r['q50']:.4g} | "
+                         f"{factor * r['q95']:.4g} |")
         lines += ["", f"Probability that a section violates a limit (95 % binomial interval), over "
                   f"{int(g.loc['std_above_limit', 'n_replicates'])} sections:", ""]
-        texts = {"mean_force_above_target": f"Fm above the target {lim.mean_force_target_n(speed):.0f} N",
-                 "std_above_limit": f"σ above {lim.max_std_fraction:g} Fm",
-                 "statistical_min_below_limit": f"Fm − 3σ at or below {lim.min_statistical_n:g} N",
-                 "uplift_above_limit": f"steady-arm uplift above {1e3 * lim.max_uplift_m:.0f} mm",
-                 "contact_lost": "contact lost"}
+        texts = violation_labels(settings.limits, speed)
         for name in VIOLATIONS:
             r = g.loc[name]
             lines.append(f"- {texts[name]}: {_pct(r['probability'], r['probability_low'], r['probability_high'])}")

@@ -13,8 +13,30 @@ import pandas as pd
 from scipy import stats
 
 from .runs import CRITERIA, VIOLATIONS
+from .settings import Limits
 
-__all__ = ["clopper_pearson", "criteria_summary", "quantile_interval", "tolerance_table"]
+__all__ = ["CRITERION_LABELS", "clopper_pearson", "criteria_summary", "quantile_interval", "tolerance_table",
+           "violation_labels"]
+
+#: How an engineer names each criterion of a run, the factor from its SI value and the unit read.
+CRITERION_LABELS = {"mean_force_n": ("mean force F_m", 1.0, "N"),
+                    "std_force_n": ("standard deviation σ_F", 1.0, "N"),
+                    "statistical_max_n": ("statistical maximum F_m + 3σ_F", 1.0, "N"),
+                    "statistical_min_n": ("statistical minimum F_m − 3σ_F", 1.0, "N"),
+                    "max_force_n": ("largest force", 1.0, "N"),
+                    "min_force_n": ("smallest force", 1.0, "N"),
+                    "max_support_uplift_m": ("steady-arm uplift", 1e3, "mm"),
+                    "contact_loss_percent": ("contact loss", 1.0, "%")}
+
+
+def violation_labels(limits: Limits, speed_kmh: float) -> dict[str, str]:
+    """What each limit violation of :data:`VIOLATIONS` is at ``speed_kmh``, in words and
+    EN 50367's terms ("σ_F above 0.3 F_m")."""
+    return {"mean_force_above_target": f"F_m above the target {limits.mean_force_target_n(speed_kmh):.0f} N",
+            "std_above_limit": f"σ_F above {limits.max_std_fraction:g} F_m",
+            "statistical_min_below_limit": f"F_m − 3σ_F at or below {limits.min_statistical_n:g} N",
+            "uplift_above_limit": f"steady-arm uplift above {1e3 * limits.max_uplift_m:.0f} mm",
+            "contact_lost": "contact lost"}
 
 
 def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:

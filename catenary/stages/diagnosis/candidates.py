@@ -53,11 +53,13 @@ Candidates
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from catenary.physics.effects import EFFECTS, EffectParameter
 
-__all__ = ["CANDIDATES", "KINDS", "Candidate", "CandidateParameter", "MODEL_FORM", "known", "register_plugins"]
+__all__ = ["CANDIDATES", "KINDS", "Candidate", "CandidateParameter", "MODEL_FORM", "format_magnitude", "known",
+           "register_plugins"]
 
 KINDS = ("spread", "shift")
 #: Candidates that are a change of the span model rather than an effect of catenary.physics.effects.
@@ -115,6 +117,20 @@ class Candidate:
     def null(self) -> dict[str, float]:
         """The magnitudes at which the effect vanishes (all 0)."""
         return {p.name: 0.0 for p in self.parameters}
+
+
+def format_magnitude(value: float, unit: str, se: float | None = None, *, name: str = "") -> str:
+    """A candidate's magnitude in the unit people read: N; mm for metres; per cent for a
+    fraction (a magnitude whose ``name`` ends with ``fraction``); else as it is."""
+    scale, suffix, digits = {"N": (1.0, " N", 0), "m": (1e3, " mm", 1)}.get(unit, (1.0, "", 3))
+    if unit == "-" and name.endswith("fraction"):
+        scale, suffix, digits = 100.0, " %", 1
+    if not math.isfinite(value):
+        return "∞"
+    text = f"{scale * value:.{digits}f}"
+    if se is not None and math.isfinite(se):
+        text += f" ± {scale * se:.{digits}f}"
+    return text + suffix
 
 
 def _p(name, kind, bounds, scale, realistic, unit, label):

@@ -16,14 +16,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .candidates import CANDIDATES, CandidateParameter
+from catenary.stages.identification.design import engineer_input
+
+from .candidates import CANDIDATES, CandidateParameter, format_magnitude
 from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure, spans_figure
 from .recommend import RECOMMENDATION_COLUMNS, recommendation_text
 from .runner import DiagnosisRun, LineDiagnosis
 from .span_effects import SPAN_EFFECT_COLUMNS
 
 __all__ = ["CANDIDATE_COLUMNS", "DiagnosisPaths", "FINDING_COLUMNS", "candidates_table", "findings_table",
-           "format_magnitude", "next_measurements_markdown", "spans_markdown", "summary_markdown", "write_diagnosis",
+           "next_measurements_markdown", "spans_markdown", "summary_markdown", "write_diagnosis",
            "write_line_diagnosis"]
 
 FINDING_COLUMNS = ("step", "verdict", "effect", "runner_up", "delta_loglik", "p_value", "parameters",
@@ -79,17 +81,6 @@ def _json(value) -> str:
 
 def _parameter(effect: str, name: str) -> CandidateParameter:
     return next(p for p in CANDIDATES[effect].parameters if p.name == name)
-
-
-def format_magnitude(value: float, unit: str, se: float | None = None) -> str:
-    """A magnitude in the unit people read: N, mm for metres, per cent for fractions."""
-    scale, suffix, digits = {"N": (1.0, " N", 0), "m": (1e3, " mm", 1)}.get(unit, (1.0, "", 3))
-    if not np.isfinite(value):
-        return "∞"
-    text = f"{scale * value:.{digits}f}"
-    if se is not None and np.isfinite(se):
-        text += f" ± {scale * se:.{digits}f}"
-    return text + suffix
 
 
 def _recommended(recommendations: pd.DataFrame | None, kind: str, step: int | None = None):
@@ -155,7 +146,7 @@ def _described(effect: str, estimates: dict) -> str:
     parts = []
     for name, (value, se) in estimates.items():
         p = _parameter(effect, name)
-        parts.append(f"{p.label} = {format_magnitude(value, p.unit, se)}")
+        parts.append(f"{p.label} = {format_magnitude(value, p.unit, se, name=name)}")
     return ", ".join(parts)
 
 
@@ -186,7 +177,8 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
     if not run.converged:
         lines += ["> **Warning: an optimiser did not converge** (`converged` in `findings.csv` and "
                   "`candidates.csv`); the figures below are those it stopped at.", ""]
-    start = ", ".join(run.base.random_inputs) + " random; free means: " + (", ".join(run.base.free_means) or "none")
+    start = (", ".join(engineer_input(n)[0] for n in run.base.random_inputs) + " random; free means: "
+             + (", ".join(engineer_input(n)[0] for n in run.base.free_means) or "none"))
     lines += [f"{run.n_spans} measured spans. Starting model: {start}; span model "
               f"{'pinned at its masts' if run.base.neighbours == 0 else 'in the line (wires continuous over the masts)'}"
               + (f"; effects {', '.join(s.start_effects)}" if s.start_effects else "") + ".",
@@ -234,11 +226,11 @@ def summary_markdown(run: DiagnosisRun, *, figures: tuple[str, ...] = (),
                   "|---|---:|---:|---:|---:|---|---|"]
         for c in sorted(st.candidates, key=lambda c: c.bic):
             det = "; ".join(
-                f"{format_magnitude(v, _parameter(c.effect, k).unit)} "
-                f"({format_magnitude(_parameter(c.effect, k).realistic, _parameter(c.effect, k).unit)}"
+                f"{format_magnitude(v, _parameter(c.effect, k).unit, name=k)} "
+                f"({format_magnitude(_parameter(c.effect, k).realistic, _parameter(c.effect, k).unit, name=k)}"
                 f"{'' if v <= _parameter(c.effect, k).realistic else ': undetectable'})"
                 for k, v in c.detectable.items())
-            est = "; ".join(f"{format_magnitude(v, _parameter(c.effect, k).unit, se)}"
+            est = "; ".join(f"{format_magnitude(v, _parameter(c.effect, k).unit, se, name=k)}"
                             for k, (v, se) in c.estimates.items())
             lines.append(f"| `{c.effect}` | {c.delta_loglik:.2f} | {c.lr_statistic:.2f} | {c.p_adjusted:.2g} | "
                          f"{c.bic:.1f} | {est} | {det} |")

@@ -54,7 +54,7 @@ import pandas as pd
 
 from catenary.measurement.channels.quantities import QUANTITIES, model_columns
 from catenary.measurement.channels.settings import MeasurementOption, MeasurementSettings
-from .candidates import CANDIDATES
+from .candidates import CANDIDATES, format_magnitude
 from .locate import lr_power
 from .refits import moment_steps
 
@@ -129,11 +129,6 @@ class Extent:
 NOT_ASKED = ("steady_arm_height_difference",)
 
 
-def _size(value: float, unit: str) -> str:
-    """A size in words: a fraction of the section in %, else with its unit."""
-    return f"{100 * value:g} %" if unit == "-" else f"{value:g} {unit}"
-
-
 def describe_measurement(quantity: str, per: str, extent: int, cost_h: float) -> str:
     """The measurement in words: what, on how many units, and its cost."""
     what = QUANTITIES[quantity].label
@@ -175,7 +170,7 @@ def questions(run, *, car_force_n: float | None = None) -> list[Question]:
             for k, p in enumerate(CANDIDATES[c.effect].parameters):
                 if not c.detectable.get(p.name, 0.0) > p.realistic:
                     continue
-                out.append(Question("undetectable", step, f"{c.effect} {p.name} at {_size(p.realistic, p.unit)}",
+                out.append(Question("undetectable", step, f"{c.effect} {p.name} at {format_magnitude(p.realistic, p.unit, name=p.name)}",
                                     (_effect_at(final, c.effect, k, p.realistic, p.kind),), level))
     if car_force_n is not None and "measuring_force_offset" not in final[0] and \
             "measuring_force_offset" in run.settings.candidates:
@@ -205,7 +200,7 @@ def _effect_at(final: tuple, effect: str, k: int, size: float, kind: str) -> Con
     params = CANDIDATES[effect].parameters
     extra = np.zeros(len(params))
     extra[k] = size / params[k].scale
-    return Contrast(f"{effect} {params[k].name} = {_size(size, params[k].unit)}", ((*final[0], effect),
+    return Contrast(f"{effect} {params[k].name} = {format_magnitude(size, params[k].unit, name=params[k].name)}", ((*final[0], effect),
                     np.r_[final[1], extra]), final, int(kind == "shift"), int(kind == "spread"))
 
 

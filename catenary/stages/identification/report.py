@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from catenary.stages.model_error.report import model_error_lines
-from .design import MESSENGER_TENSION, SYSTEM_HEIGHT
+from .design import engineer_input
 from .runner import IdentificationRun
 from .tables import s_opt_table
 
@@ -13,12 +13,10 @@ __all__ = ["markdown_report"]
 
 
 def _label(name: str) -> tuple[str, str, float, str, float]:
-    """Display name, unit and scale of μ, unit and scale of σ for an input name."""
-    if name == MESSENGER_TENSION:
-        return "T_MW", "N", 1.0, "N", 1.0
-    if name == SYSTEM_HEIGHT:
-        return "ΔH", "m", 1.0, "mm", 1e3
-    return f"L_drop,{name.split('_')[1]}", "m", 1.0, "mm", 1e3
+    """Display name, unit and scale of μ, unit and scale of σ for an input name: an engineer's
+    name, lengths and heights in mm, tensions in N (:func:`.design.engineer_input`)."""
+    label, factor, unit = engineer_input(name)
+    return label, unit, factor, unit, factor
 
 
 def _fmt(value: float, unit: str) -> str:
