@@ -53,10 +53,8 @@ rule all:
     """Everything: the paper-reproduction simulations and the measurement pipeline with the
     contact-force study, for the span types the recording holds."""
     input:
-        paper_outputs(),
-        measurement_outputs(),
-        correction_outputs(),
-        measured_outputs,
+        with_report_tables(paper_outputs() + measurement_outputs() + correction_outputs()),
+        lambda wildcards: with_report_tables(measured_outputs(wildcards)),
     default_target: True
 
 
@@ -64,12 +62,11 @@ rule measurements:
     """Your recording only: ingest → projection → correction → inversion → identification →
     diagnosis, for the span types the projection finds (`make own-data`)."""
     input:
-        measurement_outputs(),
-        correction_outputs(),
-        lambda wildcards: measured_outputs(wildcards, contact_force=False),
+        with_report_tables(measurement_outputs() + correction_outputs()),
+        lambda wildcards: with_report_tables(measured_outputs(wildcards, contact_force=False)),
 
 
 rule paper:
     """The paper-reproduction simulations only (no recording needed): `make paper`."""
     input:
-        paper_outputs(),
+        with_report_tables(paper_outputs()),

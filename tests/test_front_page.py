@@ -87,8 +87,8 @@ def test_the_front_page_says_the_tables_accuracy_each_run_measured_and_the_refus
                                                 "2 of the 21 masts"],
                              "table_std_m": [0.152, 0.181, float("nan")], "support_std_m": [0.17, 0.17, float("nan")]})
     page = front_page("T\n=\n", SPANS, CORRECTION, {"N2": SpanTypePage(S_OPT)}, sections=sections, prior_std_m=0.2)
-    assert ("**Registration, run R1:** 2 of 3 sections registered; the mast table is accurate to 0.15–0.18 m as the "
-            "run measures it (prior ``mast_table_std_m`` 0.2 m)") in page
+    assert ("**Registration, run R1:** 2 of 3 sections registered; the mast table is accurate to 152–181 mm as the "
+            "run measures it (prior ``mast_table_std_m`` 200 mm), the masts placed to 170 mm") in page
     assert "refused: section S03, run R1: registration failed: the trace's height confirms 2 of the 21 masts" in page
     publish_parts(page, writer="html", settings_overrides={"report_level": 2, "halt_level": 2})
     off = sections.assign(status="unregistered")

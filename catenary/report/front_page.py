@@ -71,6 +71,12 @@ def spans_lines(spans_report: pd.DataFrame, span_type: str) -> list[str]:
     return [text + ".", ""]
 
 
+def _mm(value_m: float) -> str:
+    """A length in mm: to 0.1 mm below 10 mm, to the mm above."""
+    mm = 1e3 * float(value_m)
+    return f"{mm:.1f}" if abs(mm) < 10 else f"{mm:.0f}"
+
+
 def registration_lines(sections: pd.DataFrame, prior_std_m: float) -> list[str]:
     """Per run, the mast table's accuracy as the run measured it (``registration/sections.csv``'s
     ``table_std_m``) against its prior, how well the masts are placed, and the sections refused
@@ -85,10 +91,10 @@ def registration_lines(sections: pd.DataFrame, prior_std_m: float) -> list[str]:
         accuracy = registered["table_std_m"].dropna()
         text = f"**Registration, run {run_id}:** {len(registered)} of {len(rows)} sections registered"
         if len(accuracy):
-            low, high = _number(float(accuracy.min()), 2), _number(float(accuracy.max()), 2)
-            text += (f"; the mast table is accurate to {low}–{high} m as the run measures it "
-                     f"(prior ``mast_table_std_m`` {_number(prior_std_m, 3)} m), the masts placed to "
-                     f"{_number(float(np.sqrt(np.mean(registered['support_std_m'] ** 2))), 2)} m (RMS standard error)")
+            rms = float(np.sqrt(np.mean(registered["support_std_m"] ** 2)))
+            text += (f"; the mast table is accurate to {_mm(accuracy.min())}–{_mm(accuracy.max())} mm as the run "
+                     f"measures it (prior ``mast_table_std_m`` {_mm(prior_std_m)} mm), the masts placed to "
+                     f"{_mm(rms)} mm (RMS standard error)")
         refused = rows[rows["status"] == "refused"]
         if len(refused):
             text += "; refused: " + "; ".join(str(r) for r in refused["reason"])
