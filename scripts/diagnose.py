@@ -31,7 +31,7 @@ from catenary.stages.diagnosis.outputs import DiagnosisPaths, write_line_diagnos
 from catenary.stages.diagnosis.recommend import Extent, questions, recommend  # noqa: E402
 from catenary.stages.diagnosis.runner import diagnose_line  # noqa: E402
 from catenary.stages.diagnosis.settings import DiagnosisSettings  # noqa: E402
-from catenary.stages.diagnosis.span_effects import MeasuringSetup, span_candidates, test_span_effects  # noqa: E402
+from catenary.stages.diagnosis.span_effects import MeasuringSetup, span_candidates, span_effect_fitter  # noqa: E402
 from catenary.stages.identification.data import read_corrected, span_places  # noqa: E402
 from catenary.stages.identification.propagation import span_shifts  # noqa: E402
 from catenary.stages.identification.settings import IdentificationSettings  # noqa: E402
@@ -76,37 +76,24 @@ log.info("%s: whole profiles of %d spans read between the droppers: noise %.3f m
          "%.2f m)", span_type.name, len(profile), 1e3 * noise.std_m, noise.ar1, noise.step_m)
 extra = None
 if snakemake.params.model_error_enabled:
-    shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
-                         span_type.n_droppers, read_table(snakemake.input.corrected))
-    extra = sum((b.T @ b) / b.shape[0] for b in shifts.w_m.values()) if shifts.w_m else None
-local = span_candidates(settings.candidates)
-
-
-def fit_local(span_ids):
-    """The user's span-scope effects fitted on the spans the final model does not explain."""
-    return test_span_effects(local, span_ids, profile_check.profiles, span_type, catenary, noise,
-                             settings.span_check().profile, settings.level, influences=profile_check.influences,
-                             directions=profile_check.directions, log=log,
-                             measuring=MeasuringSetup(pantograph.with_static_force(measuring.force_n),
-                                                      measuring.speed_m_s, correction.mode, correction.time_step_s))
-
-
+    extra = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
+                        span_type.n_droppers, read_table(snakemake.input.corrected)).covariance_m2()
+fit_local = span_effect_fitter(span_candidates(settings.candidates), profile_check, span_type, catenary,
+                               settings.span_check().profile, settings.level,
+                               MeasuringSetup(pantograph.with_static_force(measuring.force_n), measuring.speed_m_s,
+                                              correction.mode, correction.time_step_s), log=log)
 places = span_places(read_table(snakemake.input.corrected), data.span_id)
 line = diagnose_line(span_type, catenary, data, places,
-                     identification, settings, profile=profile, extra_covariance_m2=extra,
-                     span_effects=fit_local if local else None,
+                     identification, settings, profile=profile, extra_covariance_m2=extra, span_effects=fit_local,
                      force_influence_m_n=measuring.influence_m_n, declared_force_n=measuring.force_n,
                      workers=snakemake.threads, n_left_out=len(data.left_out), log=log)
 # What to measure next: every question W alone leaves open, and the car — whether W can tell its force
-# from the declared one within the model-error budget's 95 % bound (two standard uncertainties).
-force_sources = [src for src in ModelErrorSettings.from_mapping(snakemake.params.model_error).sources
-                 if src.input == "force_n"]
-car_force_n = (2.0 * (force_sources[0].std or force_sources[0].relative_std * measuring.force_n)
-               if force_sources and snakemake.params.model_error_enabled else None)
-n_sections = max(int(places["section_id"].nunique()), 1)
-asked = questions(line.run, car_force_n=car_force_n)
-recommendations = recommend(line.run.context, asked, measurements,
-                            Extent(line.run.n_spans, n_sections, line.run.n_spans + n_sections), settings.power)
+# from the declared one within the model-error budget's 95 % bound.
+budget = ModelErrorSettings.from_mapping(snakemake.params.model_error)
+asked = questions(line.run, car_force_n=budget.force_bound_n(measuring.force_n)
+                  if snakemake.params.model_error_enabled else None)
+recommendations = recommend(line.run.context, asked, measurements, Extent.of_line(line.run.n_spans, places),
+                            settings.power)
 for r in recommendations[recommendations["recommended"]].itertuples():
     log.info("%s: %s — %s: measure %s on %d (%s; %.3g h), predicted power %.2f%s", span_type.name, r.kind, r.question,
              r.quantity, r.extent, r.per, r.cost_h, r.power, "" if r.enough else " (not enough)")

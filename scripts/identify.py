@@ -2,7 +2,6 @@
 
 from pathlib import Path
 
-from catenary.measurement.channels.assemble import IDENTIFIED_QUANTITIES, read_observations
 from catenary.measurement.channels.settings import MeasurementSettings
 from catenary.measurement.repeatability import read_noise
 from catenary.physics.config import load_catenary
@@ -10,7 +9,7 @@ from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table, settings_hash
 from catenary.stages.correction import CorrectionSettings
-from catenary.stages.identification.data import read_corrected
+from catenary.stages.identification.data import identification_observations, read_corrected
 from catenary.stages.identification.outputs import IdentificationPaths, write_identification
 from catenary.stages.identification.propagation import span_shifts
 from catenary.stages.identification.runner import run_identification
@@ -28,14 +27,10 @@ data = read_corrected(snakemake.input.corrected, span_type, flagged)
 log.info("%s: %d converged spans used, %d left out", span_type.name, data.w_m.shape[0], len(data.left_out))
 for span_id, why in data.left_out:
     log.info("left out %s: %s", span_id, why)
-observations = None
-if settings.estimator == "gaussian":         # the quantities the identification's model gives, read with W
-    observations, _ = read_observations(data.span_id, snakemake.input.spans,
-                                        snakemake.input.survey[0] if snakemake.input.survey else None,
-                                        MeasurementSettings.from_mapping(snakemake.params.measurements),
-                                        CorrectionSettings.from_mapping(snakemake.params.correction).force_n,
-                                        IDENTIFIED_QUANTITIES)
-    observations = None if observations.empty else observations
+observations = identification_observations(settings.estimator, data.span_id, snakemake.input.spans,
+                                           snakemake.input.survey[0] if snakemake.input.survey else None,
+                                           MeasurementSettings.from_mapping(snakemake.params.measurements),
+                                           CorrectionSettings.from_mapping(snakemake.params.correction).force_n)
 w_shifts = None
 if snakemake.params.model_error_enabled:
     w_shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,

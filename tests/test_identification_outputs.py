@@ -387,3 +387,12 @@ def test_too_few_spans_are_refused_and_few_spans_warned_about(catenary, n2, data
     with pytest.raises(InputError, match=r"2 measured span\(s\) \(13 more left out because their correction "
                                          r"did not converge"):
         check_span_count("N2", 2, 13, log, n_left_out=13)
+
+
+def test_the_spans_left_out_of_the_explained_laws_are_those_the_diagnosis_flags():
+    # unexplained, or explained only by an effect of the user's own: both left out; the rest kept
+    from catenary.stages.identification.explained import unexplained_spans
+
+    spans = pd.DataFrame({"span_id": ["A", "B", "C", "D"], "unexplained": [True, False, False, "True"],
+                          "explained_by": ["", "clamp_mass", "", None]})
+    assert unexplained_spans(spans) == {"A", "B", "D"}

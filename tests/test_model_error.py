@@ -279,3 +279,26 @@ def test_total_interval_covers_a_planted_force_the_statistical_one_misses(catena
         stat = (row.mu - Z95 * row.mu_se, row.mu + Z95 * row.mu_se)
         assert not stat[0] <= truth <= stat[1], (name, stat, truth)
         assert row.mu_total_low <= truth <= row.mu_total_high, (name, row.mu_total_low, row.mu_total_high, truth)
+
+
+def test_the_force_bound_is_two_standard_uncertainties_of_the_force_source():
+    # absolute: 2 × 1 N; relative: 2 × 5 % of 36 N = 3.6 N; no force source or no budget: none
+    from catenary.stages.model_error.sources import ModelErrorSettings, Source
+
+    absolute = ModelErrorSettings(True, (Source("measuring_force", "force_n", std=1.0),))
+    relative = ModelErrorSettings(True, (Source("speed", "speed_kmh", relative_std=0.02),
+                                         Source("measuring_force", "force_n", relative_std=0.05)))
+    assert absolute.force_bound_n(36.0) == 2.0 and relative.force_bound_n(36.0) == pytest.approx(3.6)
+    assert ModelErrorSettings(True, (Source("speed", "speed_kmh", relative_std=0.02),)).force_bound_n(36.0) is None
+    assert ModelErrorSettings(False, absolute.sources).force_bound_n(36.0) is None
+
+
+def test_the_sources_covariance_of_one_spans_w_is_their_mean_outer_product():
+    # two sources, two spans, two droppers: Σ_s (1/K) Σ_k b_k b_kᵀ, computed by hand
+    from catenary.stages.identification.propagation import SpanShifts
+
+    a = np.array([[1.0, 0.0], [3.0, 1.0]])
+    b = np.array([[0.0, 2.0], [0.0, 2.0]])
+    expected = (np.outer(a[0], a[0]) + np.outer(a[1], a[1])) / 2 + (np.outer(b[0], b[0]) + np.outer(b[1], b[1])) / 2
+    assert np.allclose(SpanShifts({"f": a, "g": b}, {}, {}).covariance_m2(), expected)
+    assert SpanShifts({}, {}, {}).covariance_m2() is None

@@ -123,6 +123,13 @@ class Extent:
         return {"run": 1, "line": 1, "span": self.spans, "section": self.sections,
                 "mast": min(self.masts, self.spans)}[per]
 
+    @classmethod
+    def of_line(cls, n_spans: int, places) -> "Extent":
+        """The line of ``n_spans`` diagnosed spans whose places (``section_id``) are ``places``:
+        a mast at the start of each span and one more at each section's end."""
+        n_sections = max(int(places["section_id"].nunique()), 1)
+        return cls(n_spans, n_sections, n_spans + n_sections)
+
 
 #: Candidates no question is asked about: the negative control, which the projection onto the
 #: chord removes by design (:mod:`.candidates`), so that nothing about it needs settling.

@@ -43,8 +43,8 @@ from catenary.physics.static import solve_static
 from .profile_check import (Influence, ProfileNoise, ProfileSettings, _fit_span, _scan, _span_data,
                             hunter_max_normal_sf, knots_of, prewhiten, scan_positions)
 
-__all__ = ["SPAN_EFFECT_COLUMNS", "MeasuringSetup", "SpanEffectFit", "fit_span_effect", "span_candidates", "span_in_line",
-           "test_span_effects"]
+__all__ = ["SPAN_EFFECT_COLUMNS", "MeasuringSetup", "SpanEffectFit", "fit_span_effect", "span_candidates",
+           "span_effect_fitter", "span_in_line", "test_span_effects"]
 
 #: Columns of ``diagnosis/span_effects.csv``.
 SPAN_EFFECT_COLUMNS = ("span_id", "effect", "parameters", "lr_statistic", "p_value", "p_global_after",
@@ -293,3 +293,20 @@ def test_span_effects(names, span_ids, profiles: pd.DataFrame, span_type: SpanTy
                          fit.lr_statistic, fit.p_value, fit.p_global_after, fit.p_local_after,
                          "explains it" if fit.explained else "does not explain it")
     return pd.DataFrame(rows, columns=list(SPAN_EFFECT_COLUMNS))
+
+
+def span_effect_fitter(names, profile_check, span_type: SpanType, catenary: Catenary, settings: ProfileSettings,
+                       level: float, measuring: MeasuringSetup, log=None):
+    """What the diagnosis calls with the spans its final model does not explain: every span-scope
+    effect of ``names`` (the user's own) fitted on them (:func:`test_span_effects`) from the
+    whole profiles of ``profile_check`` (:func:`catenary.stages.diagnosis.inputs.profile_check_of`);
+    None without such an effect."""
+    if not names:
+        return None
+
+    def fit(span_ids):
+        return test_span_effects(names, span_ids, profile_check.profiles, span_type, catenary, profile_check.noise,
+                                 settings, level, influences=profile_check.influences,
+                                 directions=profile_check.directions, measuring=measuring, log=log)
+
+    return fit

@@ -15,13 +15,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from catenary.measurement.channels.assemble import IDENTIFIED_QUANTITIES, read_observations
 from catenary.measurement.channels.observations import Observations
+from catenary.measurement.channels.settings import MeasurementSettings
 from catenary.physics.config import SpanType
 from catenary.plumbing.errors import InputError
 from catenary.plumbing.parquet import read_table
 from .dependence import adjacent_span_pairs
 
-__all__ = ["CorrectedData", "read_corrected", "span_places"]
+__all__ = ["CorrectedData", "identification_observations", "read_corrected", "span_places"]
 
 _REQUIRED = ("span_id", "converged")
 _ADJACENCY = ("section_id", "start_chainage_m", "end_chainage_m")
@@ -155,3 +157,29 @@ def span_places(corrected: pd.DataFrame, span_ids: np.ndarray) -> pd.DataFrame:
     cols = [c for c in _ADJACENCY if c in corrected.columns]
     places = corrected.groupby("span_id", sort=False)[cols].first() if cols else pd.DataFrame(index=span_ids)
     return places.reindex(span_ids).reindex(columns=list(_ADJACENCY))
+
+
+def identification_observations(estimator: str, span_ids, spans_path: str | Path, survey_path: str | Path | None,
+                                measurements: MeasurementSettings, declared_force_n: float) -> Observations | None:
+    """The measurements besides W that the identification's model gives (tensions in spans, ΔH
+    at masts: :data:`~catenary.measurement.channels.assemble.IDENTIFIED_QUANTITIES`), on the
+    spans ``span_ids``, read from the span type's ``spans.parquet`` and the survey file; None
+    where there are none, or where the ``estimator`` (the kernel law) does not read them.
+
+    Parameters
+    ----------
+    estimator : {"gaussian", "kernel"}
+        The identification's law of W; only the Gaussian law reads measurements besides W.
+    span_ids : array of str
+    spans_path, survey_path : path
+        The projection's ``spans.parquet``; the survey file (None: no survey).
+    measurements : MeasurementSettings
+        Their accuracies (config block ``measurements``).
+    declared_force_n : float
+        The measuring pantograph's declared static force [N] (``correction.force_n``).
+    """
+    if estimator != "gaussian":
+        return None
+    observations, _ = read_observations(span_ids, spans_path, survey_path, measurements, declared_force_n,
+                                        IDENTIFIED_QUANTITIES)
+    return None if observations.empty else observations

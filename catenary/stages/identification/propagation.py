@@ -63,6 +63,13 @@ class SpanShifts:
     filled: dict
     unmeasured: dict
 
+    def covariance_m2(self) -> np.ndarray | None:
+        """The sources' covariance of one span's W, summed over the sources [m²]: each source's
+        mean over the spans of its shifts' outer product; None without a measured source."""
+        if not self.w_m:
+            return None
+        return sum((b.T @ b) / b.shape[0] for b in self.w_m.values())
+
 
 def span_shifts(shifts: pd.DataFrame, span_type: str, span_ids: np.ndarray, n_droppers: int,
                 corrected: pd.DataFrame | None = None) -> SpanShifts:

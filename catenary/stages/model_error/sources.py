@@ -76,6 +76,14 @@ class ModelErrorSettings:
             chosen.update(ids if self.sections_per_span_type == 0 else ids[:self.sections_per_span_type])
         return chosen
 
+    def force_bound_n(self, declared_force_n: float) -> float | None:
+        """How far the budget allows the measuring force off the declared one at 95 %: two standard
+        uncertainties of its ``force_n`` source [N]; None without a budget or such a source."""
+        force = [src for src in self.sources if src.input == "force_n"]
+        if not (self.enabled and force):
+            return None
+        return 2.0 * (force[0].std or force[0].relative_std * declared_force_n)
+
     @classmethod
     def from_mapping(cls, mapping: Mapping[str, Any] | None) -> "ModelErrorSettings":
         """Settings from the config block, checked against the schema (a missing block: disabled).
