@@ -41,6 +41,16 @@ def test_a_users_module_registers_its_effects(tmp_path):
         load_modules([empty], where="effects_modules")
     with pytest.raises(ConfigError, match="no such file"):
         load_modules([tmp_path / "missing.py"])
+    # a plug-in written before the package's layers is told where Effect is now; any other
+    # missing module is the user's own error, raised as it is
+    old = tmp_path / "old.py"
+    old.write_text("from catenary.effects import Effect\nEFFECTS = []\n")
+    with pytest.raises(ConfigError, match=r"old.py: imports catenary.effects, .* moved to catenary.physics.effects"):
+        load_modules([old], where="effects_modules")
+    typo = tmp_path / "typo.py"
+    typo.write_text("import numpyy\nEFFECTS = []\n")
+    with pytest.raises(ModuleNotFoundError, match="numpyy"):
+        load_modules([typo])
 
 
 def test_a_concentrated_mass_kinks_the_cw_by_its_weight_over_the_tension(catenary, n2):

@@ -400,6 +400,11 @@ def plant(name: str, p: SpanParameters, rng: np.random.Generator, magnitudes: di
 _LOADED: dict[str, tuple[str, ...]] = {}
 
 
+#: Modules a plug-in written before the package's layers (issue [19]) may import, and where they are.
+_MOVED = {"catenary.effects": "catenary.physics.effects", "catenary.config": "catenary.physics.config",
+          "catenary.errors": "catenary.plumbing.errors"}
+
+
 def load_modules(paths, where: str = "effects_modules") -> tuple[str, ...]:
     """Register the effects of users' modules (their ``EFFECTS`` lists) beside the built-ins.
 
@@ -432,7 +437,14 @@ def load_modules(paths, where: str = "effects_modules") -> tuple[str, ...]:
         spec = importlib.util.spec_from_file_location(name, path)
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module
-        spec.loader.exec_module(module)
+        try:
+            spec.loader.exec_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name not in _MOVED:
+                raise
+            raise ConfigError(f"{where}[{i}]: {raw}: imports {exc.name}, which the package's layers moved to "
+                              f"{_MOVED[exc.name]} (docs/layout.md); import Effect and EffectParameter from "
+                              f"there") from None
         effects = getattr(module, "EFFECTS", None)
         if not isinstance(effects, (list, tuple)) or not all(isinstance(e, Effect) for e in effects):
             raise ConfigError(f"{where}[{i}]: {raw}: expected a module-level list EFFECTS of catenary.physics.effects.Effect")
