@@ -53,8 +53,10 @@ rule all:
     """Everything: the paper-reproduction simulations and the measurement pipeline with the
     contact-force study, for the span types the recording holds."""
     input:
-        with_report_tables(paper_outputs() + measurement_outputs() + correction_outputs()),
-        lambda wildcards: with_report_tables(measured_outputs(wildcards)),
+        paper_outputs(),
+        measurement_outputs(),
+        correction_outputs(),
+        measured_outputs,
     default_target: True
 
 
@@ -62,11 +64,12 @@ rule measurements:
     """Your recording only: ingest → projection → correction → inversion → identification →
     diagnosis, for the span types the projection finds (`make own-data`)."""
     input:
-        with_report_tables(measurement_outputs() + correction_outputs()),
-        lambda wildcards: with_report_tables(measured_outputs(wildcards, contact_force=False)),
+        measurement_outputs(),
+        correction_outputs(),
+        lambda wildcards: measured_outputs(wildcards, contact_force=False),
 
 
 rule paper:
     """The paper-reproduction simulations only (no recording needed): `make paper`."""
     input:
-        with_report_tables(paper_outputs()),
+        paper_outputs(),

@@ -8,6 +8,7 @@ from catenary.physics.pantograph import load_pantographs
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table, settings_hash
+from catenary.report.tables import write_shown
 from catenary.stages.contact_force.draws import draw_section, replicate_seeds
 from catenary.stages.contact_force.draws import groups
 from catenary.stages.contact_force.laws import design_laws, read_laws
@@ -49,3 +50,4 @@ replicates = replicates[replicates["case"] != "sobol"]
 write_contact_force(ContactForcePaths.in_folder(snakemake.params.folder), span_type.name, settings, replicates, nominal,
                     summary, tolerance, sobol, laws.summary(), config_hash=settings_hash(snakemake.config))
 log.info("%s: %d replicate runs gathered", span_type.name, len(replicates))
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

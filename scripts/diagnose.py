@@ -24,6 +24,7 @@ from catenary.physics.pantograph import load_pantographs  # noqa: E402
 from catenary.plumbing.heap import steady_heap  # noqa: E402
 from catenary.plumbing.logs import rule_logger  # noqa: E402
 from catenary.plumbing.parquet import read_table  # noqa: E402
+from catenary.report.tables import write_shown  # noqa: E402
 from catenary.stages.correction import CorrectionSettings  # noqa: E402
 from catenary.stages.diagnosis.candidates import register_plugins  # noqa: E402
 from catenary.stages.diagnosis.inputs import measuring_pass_of, profile_check_of  # noqa: E402
@@ -100,3 +101,4 @@ for r in recommendations[recommendations["recommended"]].itertuples():
 write_line_diagnosis(line, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent), recommendations)
 log.info("%s: named %s in %.0f s; %d spans unexplained", span_type.name, line.run.named or "nothing", line.run.time_s,
          line.check.n_unexplained)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

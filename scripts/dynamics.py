@@ -12,6 +12,7 @@ from catenary.physics.pantograph import load_pantographs
 from catenary.physics.section import uniform_section
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
+from catenary.report.tables import write_shown
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
@@ -37,3 +38,4 @@ table.to_csv(snakemake.output.statistics, index=False, float_format="%.4f")
 dynamics_figure(runs, masts, window, f"{span_type.name}: {p['n_spans']} spans, {pantograph.name}",
                 snakemake.output.figure, cutoff_hz=p["filter_cutoff_hz"])
 log.info("statistics:\n%s", table.to_string(index=False))
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -8,6 +8,7 @@ from catenary.physics.config import load_catenary
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table, settings_hash
+from catenary.report.tables import write_shown
 from catenary.stages.correction import CorrectionSettings
 from catenary.stages.identification.data import identification_observations, read_corrected
 from catenary.stages.identification.outputs import IdentificationPaths, write_identification
@@ -54,3 +55,4 @@ for row in run.result.table_rows():
     log.info("s_opt %-22s mu %.6g ± %.3g  sigma %.4g ± %.3g%s", row["parameter"], row["mu"], row["mu_se"],
              row["sigma"], row["sigma_se"], "  (mean fixed)" if row["mu_fixed"] else "")
 log.info("%s: done in %.1f s", span_type.name, run.total_time_s)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -13,6 +13,7 @@ from catenary.physics.config import load_catenary
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
 from catenary.stages.correction import CorrectionSettings
 from catenary.stages.identification.data import identification_observations, read_corrected
 from catenary.stages.identification.explained import identify_explained
@@ -53,3 +54,4 @@ comparison.to_csv(snakemake.output.comparison, index=False, float_format="%.10g"
 for row in comparison.itertuples():
     log.info("%s %s: %.6g with every span, %.6g without the unexplained (difference %+.3g, z %.2f)",
              row.parameter, row.statistic, row.all_spans, row.explained_spans, row.difference, row.z)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

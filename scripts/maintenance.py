@@ -7,6 +7,7 @@ from catenary.physics.config import load_catenary
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table, settings_hash
+from catenary.report.tables import write_shown
 from catenary.stages.identification.data import read_corrected
 from catenary.stages.identification.propagation import span_shifts
 from catenary.stages.identification.settings import IdentificationSettings
@@ -57,3 +58,4 @@ if run.bands is not None:
              cov["posterior_coverage_loo"].mean(), cov["prior_coverage"].mean(), identification.band_level)
 population_band_figure(run.bands, data.w_m, span_type.dropper_positions_m, snakemake.output.band_figure,
                        f"{span_type.name}: the population's posterior band beside the prior band")
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -14,6 +14,7 @@ from catenary.plumbing.errors import InputError
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table, settings_hash
+from catenary.report.tables import write_shown
 from catenary.stages.correction import CorrectionSettings
 from catenary.stages.correction import measuring_lag
 
@@ -44,3 +45,4 @@ if result.n_used == 0:
         "expected a recording that covers the masts' chainages (same line, metres)")
 write_projection(result, Path(snakemake.output.report).parent, config_hash=settings_hash(snakemake.config),
                  span_types=snakemake.params.span_types, catenary=catenary)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -10,6 +10,7 @@ from catenary.physics.pantograph import load_pantographs
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
 from catenary.stages.correction import CorrectionSettings
 from catenary.stages.correction import measuring_lag
 
@@ -40,3 +41,4 @@ for run_id in run_ids:
     runs.append(run)
 write_registration(runs, snakemake.output.masts, snakemake.output.sections)
 registration_figure(pd.concat([r.masts for r in runs], ignore_index=True), snakemake.output.figure)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -5,6 +5,7 @@ from catenary.measurement.repeatability import estimate_repeatability
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
@@ -25,3 +26,4 @@ else:
                  snakemake.wildcards.span_type, 1e3 * result.measured_rms_m, result.measured_dof)
     for span, why in result.flagged().items():
         log.warning("span %s: %s", span, why)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

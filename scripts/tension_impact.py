@@ -5,6 +5,7 @@ from catenary.physics.config import load_catenary
 from catenary.physics.pantograph import load_pantographs
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
+from catenary.report.tables import write_shown
 from catenary.stages.tension_impact import tension_impact, tension_impact_figure
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
@@ -25,3 +26,4 @@ log.info("%s: dropper lengths of the central span [m]\n  T_MW %s N: %s\n  T_MW %
          p["messenger_tensions_n"][0], result.dropper_lengths_m[0].round(4).tolist(),
          p["messenger_tensions_n"][1], result.dropper_lengths_m[1].round(4).tolist())
 log.info("summary:\n%s", summary.to_string(index=False))
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -51,10 +51,17 @@ def test_names_without_a_unit_stay_as_they_are():
     assert header("gap_closed_fraction") == ("gap closed [%]", 100.0)
 
 
-def test_an_empty_table_is_shown_empty(tmp_path):
-    # a stage with nothing to write (the model-error budget switched off) writes an empty file
-    from catenary.report.tables import write_engineer_table
+def test_a_rules_tables_are_copied_and_an_empty_one_stays_empty(tmp_path):
+    # every output <name>_shown is the copy of output <name>; a stage with nothing to write (the
+    # model-error budget switched off) writes an empty file, shown empty
+    from catenary.report.tables import write_shown
 
     (tmp_path / "budget.csv").write_text("\n")
-    shown = write_engineer_table(tmp_path / "budget.csv", tmp_path / "shown" / "budget.csv", tmp_path / "log")
-    assert shown.read_text() == "\n" and "0 rows" in (tmp_path / "log").read_text()
+    (tmp_path / "table1.csv").write_text("dropper,std_cm\n1,1.05\n")
+    outputs = {"budget": tmp_path / "budget.csv", "budget_shown": tmp_path / "shown" / "budget.csv",
+               "table1": tmp_path / "table1.csv", "table1_shown": tmp_path / "shown" / "table1.csv",
+               "figure": tmp_path / "fig.png"}
+    written = write_shown(outputs)
+    assert written == [outputs["budget_shown"], outputs["table1_shown"]]
+    assert outputs["budget_shown"].read_text() == "\n"
+    assert outputs["table1_shown"].read_text() == "dropper,std [mm]\n1,10.5\n"           # the paper's cm in mm

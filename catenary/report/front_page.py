@@ -26,12 +26,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from catenary.physics.names import engineer_input
 from catenary.stages.contact_force.runs import VIOLATIONS
 from catenary.stages.contact_force.settings import Limits
 from catenary.stages.contact_force.summary import violation_labels
 from catenary.stages.diagnosis.candidates import CANDIDATES, format_magnitude
 from catenary.stages.diagnosis.recommend import describe_measurement
-from catenary.stages.identification.design import engineer_input
 
 __all__ = ["SpanTypePage", "front_page", "read_span_type_page", "write_front_page"]
 

@@ -24,10 +24,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.stages.contact_force.summary import CRITERION_LABELS
-from catenary.stages.identification.design import engineer_input
+from catenary.physics.names import CRITERION_LABELS, engineer_input
 
-__all__ = ["LINE_LENGTHS", "ROW_NAMES", "ROW_VALUES", "engineer_table", "header", "quantity", "write_engineer_table"]
+__all__ = ["LINE_LENGTHS", "ROW_NAMES", "ROW_VALUES", "engineer_table", "header", "quantity", "write_engineer_table",
+           "write_shown"]
 
 #: Columns in metres that are positions or lengths along the line, shown in m (a span's
 #: ``length_m`` is one, a dropper's is not: see :func:`_line_length`).
@@ -64,8 +64,8 @@ def _line_length(column: str, columns) -> bool:
 
 def quantity(name: str) -> tuple[str, float, str]:
     """How a quantity named in SI is read: its label, the factor from SI and the unit
-    (a contact-force criterion's :data:`~catenary.stages.contact_force.summary.CRITERION_LABELS`,
-    :func:`~catenary.stages.identification.design.engineer_input` for the identified inputs and
+    (a contact-force criterion's :data:`~catenary.physics.names.CRITERION_LABELS`,
+    :func:`~catenary.physics.names.engineer_input` for the identified inputs and
     dropper forces, else from the name's unit suffix; a name without one stays as it is)."""
     if name in CRITERION_LABELS:
         return CRITERION_LABELS[name]
@@ -123,19 +123,33 @@ def engineer_table(table: pd.DataFrame) -> pd.DataFrame:
     return out.rename(columns=renamed)
 
 
-def write_engineer_table(source: str | Path, path: str | Path, log: str | Path | None = None) -> Path:
-    """Read the machine table ``source`` (CSV), write :func:`engineer_table` of it to ``path``
-    (and, given ``log``, a line saying so there)."""
+def write_engineer_table(source: str | Path, path: str | Path) -> Path:
+    """Read the machine table ``source`` (CSV), write :func:`engineer_table` of it to ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     try:
         table = pd.read_csv(source, keep_default_na=False, na_values=[""])
     except pd.errors.EmptyDataError:                 # a stage that had nothing to write (a budget not measured)
         path.write_text(Path(source).read_text(encoding="utf-8"), encoding="utf-8")
-        table = pd.DataFrame()
     else:
         engineer_table(table).to_csv(path, index=False, float_format="%.6g")
-    if log is not None:
-        Path(log).parent.mkdir(parents=True, exist_ok=True)
-        Path(log).write_text(f"{source}: {len(table)} rows shown in an engineer's units as {path}\n", encoding="utf-8")
     return path
+
+
+def write_shown(outputs) -> list[Path]:
+    """Write the report's copy of every table among a rule's ``outputs``: for each output
+    ``<name>_shown``, :func:`write_engineer_table` of output ``<name>`` (the workflow's
+    ``table()`` declares the pair). Called by a rule script once its tables are written.
+
+    Parameters
+    ----------
+    outputs : snakemake.io.Namedlist or mapping of str to path
+
+    Returns
+    -------
+    list of pathlib.Path
+        The copies written.
+    """
+    items = dict(outputs.items()) if hasattr(outputs, "items") else dict(outputs)
+    return [write_engineer_table(items[name.removesuffix("_shown")], path)
+            for name, path in items.items() if name.endswith("_shown")]

@@ -87,19 +87,11 @@ LINE = "Whole recording"
 VALIDATION = "Validation against the campaign's truth"
 
 
-#: The tables the report shows, by machine path: caption, stage, title and category
-#: (reported()). The report shows each as its copy in an engineer's units (rules
-#: report_table_<caption>, report.smk); the file itself keeps SI and its column names.
-REPORT_TABLES = {}
-
-
 def reported(path, caption, stage, title, category="{span_type}"):
-    """``path`` for the report, captioned by workflow/report/``caption``.rst and filed under
-    ``category`` (by default the job's span type) and ``stage``: a figure flagged as it is, a
-    table registered in REPORT_TABLES and shown as its copy (report_table())."""
+    """A figure at ``path`` flagged for the report, captioned by workflow/report/``caption``.rst
+    and filed under ``category`` (by default the job's span type) and ``stage``. (A table: table().)"""
     if path.endswith(".csv"):
-        REPORT_TABLES[path] = {"caption": caption, "stage": stage, "title": title, "category": category}
-        return path
+        raise ValueError(f"{path}: a table goes to the report through table(), in an engineer's units")
     return report(path, caption=f"../report/{caption}.rst", category=category, subcategory=stage,
                   labels={"result": title, "file": os.path.basename(path)})
 
@@ -109,17 +101,14 @@ def report_table(path):
     return f"{RESULTS}/report/tables/{os.path.relpath(path, RESULTS)}"
 
 
-def report_table_log(path):
-    """The log of the rule copying the machine table ``path`` for the report."""
-    return f"{RESULTS}/logs/report_tables/{os.path.relpath(path, RESULTS)}.log"
-
-
-def with_report_tables(paths):
-    """``paths`` and the report's copy of every table among them that the report shows."""
-    import re
-
-    shown = re.compile("|".join(re.escape(p).replace(re.escape("{span_type}"), "[^/]+") for p in REPORT_TABLES))
-    return list(paths) + [report_table(p) for p in paths if REPORT_TABLES and shown.fullmatch(str(p))]
+def table(name, path, caption, stage, title, category="{span_type}"):
+    """A rule's table: output ``name`` at ``path``, the machine file (SI, ``_m`` / ``_n`` names),
+    and ``<name>_shown``, its copy in an engineer's units (report_table()) flagged for the report as
+    reported() flags a figure. The rule's script writes both (catenary.report.tables.write_shown);
+    use as ``**table(...)`` among a rule's outputs."""
+    return {name: path, f"{name}_shown": report(report_table(path), caption=f"../report/{caption}.rst",
+                                                 category=category, subcategory=stage,
+                                                 labels={"result": title, "file": os.path.basename(path)})}
 
 
 def later_laws(wildcards):
@@ -191,8 +180,7 @@ def static_outputs():
 
 
 def measurement_outputs():
-    outputs = [f"{RESULTS}/spans_report.csv", f"{RESULTS}/registration/masts.csv",
-               f"{RESULTS}/registration/sections.csv"]
+    outputs = [f"{RESULTS}/spans_report.csv"]
     if CAMPAIGN_RUN:
         outputs += [f"{RESULTS}/validation/projection_round_trip.csv", f"{RESULTS}/validation/registration_check.csv"]
     return outputs
@@ -285,8 +273,7 @@ def model_error_sections():
 
 def correction_outputs():
     outputs = expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES)
-    outputs += [f"{RESULTS}/correction/convergence.csv", f"{RESULTS}/correction/summary.csv",
-                f"{RESULTS}/correction/model_error_budget.csv"]
+    outputs += [f"{RESULTS}/correction/convergence.csv", f"{RESULTS}/correction/summary.csv"]
     if CAMPAIGN_RUN:
         outputs.append(f"{RESULTS}/validation/correction_check.csv")
     return outputs
@@ -316,8 +303,7 @@ def maintenance_outputs(span_types=SPAN_TYPES):
     if not (config.get("maintenance") or {}).get("enabled", True):
         return []
     outputs = expand([f"{RESULTS}/{{span_type}}/maintenance/{name}"
-                      for name in ("posterior.parquet", "maintenance.csv", "chainage.png", "population_coverage.csv")],
-                     span_type=span_types)
+                      for name in ("posterior.parquet", "maintenance.csv", "chainage.png")], span_type=span_types)
     if CAMPAIGN_RUN:
         outputs += [f"{RESULTS}/validation/maintenance_check.csv", f"{RESULTS}/validation/spans_check.csv"]
     return outputs

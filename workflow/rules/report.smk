@@ -41,27 +41,3 @@ use rule front_page as front_page_measurements with:
     benchmark:
         f"{RESULTS}/benchmarks/front_page_measurements.tsv",
 
-
-# The report's tables, one rule per table that reported() registered (every rule file is read by
-# now): the machine table, which keeps SI, copied in an engineer's units (catenary.report.tables)
-# and filed in the report under the table's own caption, span type and stage. A copy takes
-# milliseconds: it runs in Snakemake's own process (run:, a local rule on a cluster too), not
-# as a job of its own that would pay a Python start-up per table.
-for _path, _shown in REPORT_TABLES.items():
-
-    rule:
-        name:
-            f"report_table_{_shown['caption']}"
-        localrule: True
-        input:
-            table=_path,
-        output:
-            table=report(report_table(_path), caption=f"../report/{_shown['caption']}.rst",
-                         category=_shown["category"], subcategory=_shown["stage"],
-                         labels={"result": _shown["title"], "file": os.path.basename(_path)}),
-        log:
-            report_table_log(_path),
-        run:
-            from catenary.report.tables import write_engineer_table
-
-            write_engineer_table(input.table, output.table, log[0])

@@ -17,11 +17,12 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
+from catenary.physics.names import CRITERION_LABELS
 from catenary.plumbing.parquet import write_table
 from .runs import CRITERIA, VIOLATIONS
 from .sensitivity import SOBOL_COLUMNS, SobolResult
 from .settings import ContactForceSettings
-from .summary import CRITERION_LABELS, violation_labels
+from .summary import violation_labels
 
 __all__ = ["ContactForcePaths", "SENSITIVITY_SKIPPED", "replicates_schema", "write_contact_force"]
 

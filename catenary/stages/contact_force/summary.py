@@ -15,18 +15,8 @@ from scipy import stats
 from .runs import CRITERIA, VIOLATIONS
 from .settings import Limits
 
-__all__ = ["CRITERION_LABELS", "clopper_pearson", "criteria_summary", "quantile_interval", "tolerance_table",
+__all__ = ["clopper_pearson", "criteria_summary", "quantile_interval", "tolerance_table",
            "violation_labels"]
-
-#: How an engineer names each criterion of a run, the factor from its SI value and the unit read.
-CRITERION_LABELS = {"mean_force_n": ("mean force F_m", 1.0, "N"),
-                    "std_force_n": ("standard deviation σ_F", 1.0, "N"),
-                    "statistical_max_n": ("statistical maximum F_m + 3σ_F", 1.0, "N"),
-                    "statistical_min_n": ("statistical minimum F_m − 3σ_F", 1.0, "N"),
-                    "max_force_n": ("largest force", 1.0, "N"),
-                    "min_force_n": ("smallest force", 1.0, "N"),
-                    "max_support_uplift_m": ("steady-arm uplift", 1e3, "mm"),
-                    "contact_loss_percent": ("contact loss", 1.0, "%")}
 
 
 def violation_labels(limits: Limits, speed_kmh: float) -> dict[str, str]:

@@ -16,8 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from catenary.stages.identification.design import engineer_input
-
+from catenary.physics.names import engineer_input
 from .candidates import CANDIDATES, CandidateParameter, format_magnitude
 from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure, spans_figure
 from .recommend import RECOMMENDATION_COLUMNS, recommendation_text

@@ -63,7 +63,6 @@ from catenary.physics.dropper_table import nominal_dropper_lengths
 
 __all__ = [
     "CORNISH_FISHER_MAX_CV", "DEFAULT_DESIGN", "DESIGN_METHODS", "MESSENGER_TENSION", "SYSTEM_HEIGHT",
-    "engineer_input",
     "SYSTEM_HEIGHT_MODES", "RandomInput", "SpanInputs", "UnitDesign", "default_inputs",
     "design_dimension", "draw_unit_design", "dropper_names", "gamma_quantiles", "map_inputs",
 ]
@@ -75,23 +74,6 @@ DESIGN_METHODS = ("sobol", "lhs")
 DEFAULT_DESIGN = "sobol"
 #: Largest coefficient of variation σ/μ served by the Cornish–Fisher fast path.
 CORNISH_FISHER_MAX_CV = 0.1
-
-#: How an engineer names each input and reads its values: label, factor from SI, unit.
-_ENGINEER = {"dropper_lengths_m": ("dropper lengths", 1e3, "mm"),
-             MESSENGER_TENSION: ("messenger tension T_MW", 1.0, "N"),
-             "contact_tension_n": ("contact tension T_CW", 1.0, "N"),
-             SYSTEM_HEIGHT: ("system height ΔH", 1e3, "mm")}
-
-
-def engineer_input(parameter: str) -> tuple[str, float, str]:
-    """An input's name as an engineer says it, the factor from its SI value and the unit read
-    (``dropper_3_length_m`` → "dropper 3 length", 1000, "mm"; ``dropper_3_force_n`` → "dropper 3
-    force", 1, "N"); an unknown name stays as it is, in SI."""
-    if parameter.startswith("dropper_") and parameter.endswith("_length_m"):
-        return f"dropper {parameter.split('_')[1]} length", 1e3, "mm"
-    if parameter.startswith("dropper_") and parameter.endswith("_force_n"):
-        return f"dropper {parameter.split('_')[1]} force", 1.0, "N"
-    return _ENGINEER.get(parameter, (parameter, 1.0, "SI"))
 
 
 def dropper_names(n_droppers: int) -> tuple[str, ...]:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from catenary.physics.names import engineer_input
 from catenary.stages.model_error.report import model_error_lines
-from .design import engineer_input
 from .runner import IdentificationRun
 from .tables import s_opt_table
 
