@@ -1,7 +1,9 @@
 """The machine-readable outputs of a run: every CSV and Parquet file under a results folder, with
 its columns (a CSV's header, a Parquet file's schema).
 
-``python -m tests.outputs_manifest RESULTS`` prints it as JSON; the fixtures under
+``python -m tests.outputs_manifest RESULTS`` prints it as JSON, ``python -m tests.outputs_manifest
+RESULTS FIXTURE`` compares a run with a manifest (files gone, columns changed, files added; exit
+status 1 on the first two); the fixtures under
 ``tests/fixtures/outputs/`` hold the manifests of the tree before issue [19] moved the package
 into layers (commit 8ebe823): the small profile's (``make test-pipeline``, results/ci) and the
 default run's (``make run``, results). tests/test_outputs_kept.py compares a run with them.
@@ -48,5 +50,14 @@ def differences(before: dict[str, list[str]], after: dict[str, list[str]]) -> tu
 
 
 if __name__ == "__main__":
-    json.dump(manifest(sys.argv[1]), sys.stdout, indent=1, sort_keys=True)
-    sys.stdout.write("\n")
+    if len(sys.argv) == 2:
+        json.dump(manifest(sys.argv[1]), sys.stdout, indent=1, sort_keys=True)
+        sys.stdout.write("\n")
+    else:
+        before = json.loads(Path(sys.argv[2]).read_text())
+        gone, changed, added = differences(before, manifest(sys.argv[1]))
+        print(f"{len(before)} files in {sys.argv[2]}: {len(gone)} gone, {len(changed)} with other columns, "
+              f"{len(added)} added")
+        for line in [f"gone: {g}" for g in gone] + [f"changed: {c}" for c in changed] + [f"added: {a}" for a in added]:
+            print(line)
+        sys.exit(1 if gone or changed else 0)
