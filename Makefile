@@ -43,11 +43,11 @@ run: setup
 
 # Rewrite data/default_campaign, the default campaign that make run copies instead of simulating
 # while it was written from these very config/campaign.yaml, catenary.yaml and pantographs.yaml
-# (catenary.shipped): after changing one of them or the code that moves the campaign.
+# (catenary.measurement.shipped): after changing one of them or the code that moves the campaign.
 default-data: setup
 	$(SMK) --cores $(CORES) --configfile config/config.yaml --config campaign_copy= results=results/default_data \
 	  -- results/default_data/campaign/recording.parquet
-	$(BIN)/python -m catenary.shipped results/default_data/campaign data/default_campaign \
+	$(BIN)/python -m catenary.measurement.shipped results/default_data/campaign data/default_campaign \
 	  config/campaign.yaml config/catenary.yaml config/pantographs.yaml
 
 # Your recording only (ingest → … → identification → diagnosis): make own-data OWN=config/my_line.yaml

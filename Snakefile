@@ -5,8 +5,8 @@ import sys
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version
 
-from catenary.errors import ConfigError
-from catenary.schema import check as check_config
+from catenary.plumbing.errors import ConfigError
+from catenary.plumbing.schema import check as check_config
 
 min_version("9.0")
 
@@ -41,10 +41,12 @@ include: "workflow/rules/report.smk"
 # Snakemake knows the jobs behind the projection checkpoint, which a separate `--report` call
 # misses): its opening panel is this run's front page (rule front_page, written before the report),
 # or the method alone when the run writes no front page (`make paper`).
-_WRITES_FRONT_PAGE = os.path.exists(FRONT_PAGE) or "--report-after-run" in sys.argv
+# `make own-data` asks for target `measurements`, whose front page has no contact-force study.
+_FRONT_PAGE = FRONT_PAGE_MEASUREMENTS if "measurements" in sys.argv else FRONT_PAGE
+_WRITES_FRONT_PAGE = os.path.exists(_FRONT_PAGE) or "--report-after-run" in sys.argv
 
 
-report: os.path.abspath(FRONT_PAGE) if _WRITES_FRONT_PAGE else "workflow/report/workflow.rst"
+report: os.path.abspath(_FRONT_PAGE) if _WRITES_FRONT_PAGE else "workflow/report/workflow.rst"
 
 
 rule all:

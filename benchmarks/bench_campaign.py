@@ -11,13 +11,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.campaign import masts_table, simulate_section
-from catenary.config import load_catenary
-from catenary.pantograph import load_pantographs
-from catenary.parquet import write_table
-from catenary.projection import ProjectionSettings, project
-from catenary.recording import RECORDING_SCHEMA, read_masts, read_recording
-from catenary.truth import draw_line, load_truth
+from catenary.measurement.campaign import masts_table, simulate_section
+from catenary.measurement.projection import ProjectionSettings, project
+from catenary.measurement.recording import RECORDING_SCHEMA, read_masts, read_recording
+from catenary.measurement.truth import draw_line, load_truth
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.parquet import write_table
 
 
 def _section(k: int):

@@ -3,7 +3,7 @@
 The section is drawn from spreads of the paper's Table 2 order (droppers 5 mm, T_MW 818 N,
 ΔH 6.5 mm) by the sampler the rule uses, assembled, and run by the reference 2-mass pantograph
 from the first mast until one span after the analysis window
-(`catenary.contact_force.runs.run_section`), statistics over spans 4–7. The first replicate (compiling and loading the kernel) is not counted.
+(`catenary.stages.contact_force.runs.run_section`), statistics over spans 4–7. The first replicate (compiling and loading the kernel) is not counted.
 
 When a default run has left its jobs' ``benchmark:`` records in ``results/benchmarks/`` (``make
 run``), the contact-force rules' own wall time is recorded too: the sum over the batch and
@@ -16,12 +16,12 @@ from record import ROOT, record  # noqa: I001  (sets one BLAS thread first)
 import dataclasses
 import time
 
-from catenary.config import load_catenary
-from catenary.contact_force.draws import draw_section, replicate_seeds
-from catenary.contact_force.laws import design_laws
-from catenary.contact_force.runs import run_section
-from catenary.contact_force.settings import ContactForceSettings
-from catenary.pantograph import load_pantographs
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.stages.contact_force.draws import draw_section, replicate_seeds
+from catenary.stages.contact_force.laws import design_laws
+from catenary.stages.contact_force.runs import run_section
+from catenary.stages.contact_force.settings import ContactForceSettings
 
 REPLICATES = 4
 

@@ -14,10 +14,10 @@ from dataclasses import replace
 import pandas as pd
 import yaml
 
-from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings, correct_spans
-from catenary.pantograph import load_pantographs
-from catenary.parquet import read_table
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.parquet import read_table
+from catenary.stages.correction import CorrectionSettings, correct_spans
 
 CONFIG = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
 RESULTS = ROOT / CONFIG["results"]

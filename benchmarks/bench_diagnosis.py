@@ -13,14 +13,14 @@ import time
 import numpy as np
 import yaml
 
-from catenary.config import load_catenary
-from catenary.diagnosis.model import simulate_spans
-from catenary.diagnosis.runner import diagnose, make_sampler
-from catenary.diagnosis.settings import DiagnosisSettings
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.identification.settings import IdentificationSettings
-from catenary.measuring import force_influence
-from catenary.pantograph import load_pantographs
+from catenary.physics.config import load_catenary
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.measuring import force_influence
+from catenary.physics.pantograph import load_pantographs
+from catenary.stages.diagnosis.model import simulate_spans
+from catenary.stages.diagnosis.runner import diagnose, make_sampler
+from catenary.stages.diagnosis.settings import DiagnosisSettings
+from catenary.stages.identification.settings import IdentificationSettings
 
 TABLE2_SIGMA = [0.0067, 0.0050, 0.0045, 0.0045, 0.0038, 0.0044, 0.0035, 0.0034, 0.0070]
 

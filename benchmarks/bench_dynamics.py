@@ -5,13 +5,13 @@ reference-like pantograph, wall time of a 20-span measuring pass at 40 km/h (dyn
 catenary's 1 ms step and at the correction's 4 ms, and quasi-static), and the profile of the
 300 km/h run and of the 4 ms measuring pass:
 
-* ``assembly``: building the section's operators (:class:`catenary.dynamics.CatenaryDynamics`);
+* ``assembly``: building the section's operators (:class:`catenary.physics.dynamics.CatenaryDynamics`);
 * ``set-up``: what ``run_pantograph`` does before its time loop (factorising the effective
   stiffness, the droppers' Green's functions, the initial equilibrium);
 * inside the compiled time loop, timed by running each kernel alone as often as the loop does:
   ``solve`` (one banded back-substitution per step), ``unit responses`` (two more each time the
   contact enters an element), ``M (p + κ q)`` (the right-hand side's product; no product with
-  C is needed, see :func:`catenary.dynamics_kernel.newmark_contact_loop`) and the rest
+  C is needed, see :func:`catenary.physics.dynamics_kernel.newmark_contact_loop`) and the rest
   (``active set and updates``: the Newmark vectors, the dropper/contact active set, outputs).
 
 Numba's compilation is paid before any timing (a warm-up run), as a user pays it once per
@@ -25,14 +25,14 @@ import time
 import numpy as np
 from numba import njit
 
-import catenary.dynamics as dynamics
-from catenary.config import load_catenary
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.dynamics import CatenaryDynamics, PseudoForceSolver, run_pantograph
-from catenary.dynamics_kernel import band_rows, band_solve, mass_band, symmetric_band_product
-from catenary.measuring import measuring_pass
-from catenary.pantograph import load_pantographs
-from catenary.section import uniform_section
+import catenary.physics.dynamics as dynamics
+from catenary.physics.config import load_catenary
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.dynamics import CatenaryDynamics, PseudoForceSolver, run_pantograph
+from catenary.physics.dynamics_kernel import band_rows, band_solve, mass_band, symmetric_band_product
+from catenary.physics.measuring import measuring_pass
+from catenary.physics.pantograph import load_pantographs
+from catenary.physics.section import uniform_section
 
 
 @njit(cache=True)

@@ -24,22 +24,22 @@ import time
 
 import numpy as np
 
-from catenary.config import load_catenary
-from catenary.identification.design import default_inputs
-from catenary.identification.fit import identify, make_likelihood
-from catenary.identification.profile import profile_intervals
-from catenary.identification.settings import IdentificationSettings
-from catenary.identification.synthetic import line_deflections, simulate_deflections
-from catenary.truth import load_truth
+from catenary.measurement.truth import load_truth
+from catenary.physics.config import load_catenary
+from catenary.stages.identification.design import default_inputs
+from catenary.stages.identification.fit import identify, make_likelihood
+from catenary.stages.identification.profile import profile_intervals
+from catenary.stages.identification.settings import IdentificationSettings
+from catenary.stages.identification.synthetic import line_deflections, simulate_deflections
 
 TABLE2_DROPPER_SIGMA_M = [0.0067, 0.0050, 0.0045, 0.0045, 0.0038, 0.0044, 0.0035, 0.0034, 0.0070]
 
 MEMORY_PROBE = r"""
 import json, resource, tracemalloc
 import numpy as np
-from catenary.config import load_catenary
-from catenary.identification.design import default_inputs
-from catenary.identification.fit import make_likelihood
+from catenary.physics.config import load_catenary
+from catenary.stages.identification.design import default_inputs
+from catenary.stages.identification.fit import make_likelihood
 catenary = load_catenary({config!r})
 n2 = catenary.span_type("N2")
 start = default_inputs(n2, catenary)

@@ -24,18 +24,18 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from catenary.config import load_catenary
-from catenary.fast import FastSpanModel
-from catenary.identification.design import default_inputs
-from catenary.identification.band import band_abscissae
-from catenary.maintenance.population import population_bands
-from catenary.maintenance.posterior import global_modes, span_posteriors
-from catenary.maintenance.prior import SpanPrior, messenger_tension_range_n
-from catenary.contact_force.settings import ContactForceSettings
-from catenary.maintenance.repair import fixing_buys
-from catenary.maintenance.settings import MaintenanceSettings
-from catenary.pantograph import load_pantographs
-from catenary.parquet import read_table
+from catenary.physics.config import load_catenary
+from catenary.physics.fast import FastSpanModel
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.parquet import read_table
+from catenary.stages.contact_force.settings import ContactForceSettings
+from catenary.stages.identification.band import band_abscissae
+from catenary.stages.identification.design import default_inputs
+from catenary.stages.maintenance.population import population_bands
+from catenary.stages.maintenance.posterior import global_modes, span_posteriors
+from catenary.stages.maintenance.prior import SpanPrior, messenger_tension_range_n
+from catenary.stages.maintenance.repair import fixing_buys
+from catenary.stages.maintenance.settings import MaintenanceSettings
 
 CONFIG = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
 N_SPANS = 117

@@ -21,16 +21,16 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings, correct_spans
-from catenary.identification.design import default_inputs
-from catenary.identification.fit import ScaledProblem, identify, make_likelihood
-from catenary.identification.synthetic import simulate_deflections
-from catenary.model_error.correction import run_shifts
-from catenary.model_error.propagation import parameter_shifts
-from catenary.model_error.sources import ModelErrorSettings
-from catenary.pantograph import load_pantographs
-from catenary.parquet import read_table
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.parquet import read_table
+from catenary.stages.correction import CorrectionSettings, correct_spans
+from catenary.stages.identification.design import default_inputs
+from catenary.stages.identification.fit import ScaledProblem, identify, make_likelihood
+from catenary.stages.identification.propagation import parameter_shifts
+from catenary.stages.identification.synthetic import simulate_deflections
+from catenary.stages.model_error.correction import run_shifts
+from catenary.stages.model_error.sources import ModelErrorSettings
 
 CONFIG = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
 RESULTS = ROOT / CONFIG["results"]

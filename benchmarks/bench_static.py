@@ -8,12 +8,12 @@ from record import ROOT, best_time_s, record  # noqa: I001  (sets one BLAS threa
 
 import numpy as np
 
-from catenary.config import load_catenary
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.diagnosis.model import OFFSET_BOUNDS_M, OFFSET_DEGREE
-from catenary.fast import SAMPLING_DEGREE, FastSpanModel
-from catenary.section import single_span, uniform_section
-from catenary.static import solve_static
+from catenary.physics.config import load_catenary
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.fast import SAMPLING_DEGREE, FastSpanModel
+from catenary.physics.section import single_span, uniform_section
+from catenary.physics.static import solve_static
+from catenary.stages.diagnosis.model import OFFSET_BOUNDS_M, OFFSET_DEGREE
 
 
 def main() -> None:

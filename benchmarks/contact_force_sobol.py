@@ -25,13 +25,13 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from catenary.config import load_catenary
-from catenary.contact_force.draws import groups
-from catenary.contact_force.laws import read_laws
-from catenary.contact_force.runs import run_sobol_batch
-from catenary.contact_force.sensitivity import sobol_design, sobol_indices
-from catenary.contact_force.settings import ContactForceSettings
-from catenary.pantograph import load_pantographs
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.stages.contact_force.draws import groups
+from catenary.stages.contact_force.laws import read_laws
+from catenary.stages.contact_force.runs import run_sobol_batch
+from catenary.stages.contact_force.sensitivity import sobol_design, sobol_indices
+from catenary.stages.contact_force.settings import ContactForceSettings
 
 CONFIG = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
 

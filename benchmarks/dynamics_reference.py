@@ -14,13 +14,13 @@ from record import ROOT  # noqa: I001  (sets one BLAS thread first)
 
 import numpy as np
 
-from catenary.config import load_catenary
-from catenary.contact_statistics import contact_statistics
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.dynamics import CatenaryDynamics, run_pantograph
-from catenary.measuring import measuring_pass
-from catenary.pantograph import load_pantographs
-from catenary.section import uniform_section
+from catenary.physics.config import load_catenary
+from catenary.physics.contact_statistics import contact_statistics
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.dynamics import CatenaryDynamics, run_pantograph
+from catenary.physics.measuring import measuring_pass
+from catenary.physics.pantograph import load_pantographs
+from catenary.physics.section import uniform_section
 
 PATH = ROOT / "tests" / "fixtures" / "dynamics_reference.npz"
 

@@ -24,11 +24,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.truth_checks import realized_truth
-from catenary.config import load_catenary
-from catenary.identification.dependence import adjacent_span_pairs
-from catenary.identification.runner import run_identification
-from catenary.identification.settings import IdentificationSettings
+from catenary.measurement.truth_checks import realized_truth
+from catenary.physics.config import load_catenary
+from catenary.stages.identification.dependence import adjacent_span_pairs
+from catenary.stages.identification.runner import run_identification
+from catenary.stages.identification.settings import IdentificationSettings
 
 
 def main(truth_path: Path) -> None:

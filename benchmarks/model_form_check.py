@@ -37,15 +37,15 @@ from pathlib import Path
 
 import numpy as np
 
-from catenary.campaign import section_model, static_truth
-from catenary.config import load_catenary
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.fast import FastSpanModel
-from catenary.identification.runner import run_identification
-from catenary.identification.settings import IdentificationSettings
-from catenary.section import Section
-from catenary.static import solve_static
-from catenary.truth import draw_line, load_truth
+from catenary.measurement.campaign import section_model, static_truth
+from catenary.measurement.truth import draw_line, load_truth
+from catenary.physics.config import load_catenary
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.fast import FastSpanModel
+from catenary.physics.section import Section
+from catenary.physics.static import solve_static
+from catenary.stages.identification.runner import run_identification
+from catenary.stages.identification.settings import IdentificationSettings
 
 DIFFERENCES = ("neighbour_droppers", "neighbour_tension", "outer_system_height", "steady_arm_heights",
                "section_end")

@@ -19,7 +19,7 @@ import json
 import numpy as np
 import pandas as pd
 
-from catenary.parquet import read_table
+from catenary.plumbing.parquet import read_table
 
 
 def folder(name: str):

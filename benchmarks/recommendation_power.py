@@ -4,8 +4,8 @@ simulating the recommended measurement (issue [17]).
 For each scenario — a worn CW against a T_MW spread, dropper creep against a T_MW spread, a
 force offset, a T_CW spread, the car's declared force uncertainty — 117 N2 spans are drawn at the
 level of W from the diagnosis' own model (the campaign's effect functions through the fast model,
-:func:`catenary.diagnosis.model.simulate_spans`), diagnosed from W alone, and the diagnosis'
-questions answered by :func:`catenary.diagnosis.recommend.recommend` (for creep against the T_MW
+:func:`catenary.stages.diagnosis.model.simulate_spans`), diagnosed from W alone, and the diagnosis'
+questions answered by :func:`catenary.stages.diagnosis.recommend.recommend` (for creep against the T_MW
 spread, the first of a few draws where W alone leaves them ambiguous, else — W names creep, or
 nothing, on each — the pair as step 1 fitted both). Then, for the recommended
 measurement at its recommended extent, ``--replicates`` data sets are drawn from each contrast's
@@ -36,21 +36,21 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pandas as pd
 
-from catenary.channels.observations import LineObservation, Observations
-from catenary.channels.quantities import QUANTITIES, model_columns
-from catenary.channels.settings import MeasurementSettings
-from catenary.config import load_catenary
-from catenary.diagnosis.candidates import CANDIDATES
-from catenary.diagnosis.locate import mixture_sf
-from catenary.diagnosis.model import simulate_spans
-from catenary.diagnosis.problem import refit
-from catenary.diagnosis.recommend import Extent, pair_question, questions, recommend
-from catenary.diagnosis.runner import diagnose, make_sampler
-from catenary.diagnosis.settings import DiagnosisSettings
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.identification.settings import IdentificationSettings
-from catenary.measuring import force_influence
-from catenary.pantograph import load_pantographs
+from catenary.measurement.channels.observations import LineObservation, Observations
+from catenary.measurement.channels.quantities import QUANTITIES, model_columns
+from catenary.measurement.channels.settings import MeasurementSettings
+from catenary.physics.config import load_catenary
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.measuring import force_influence
+from catenary.physics.pantograph import load_pantographs
+from catenary.stages.diagnosis.candidates import CANDIDATES
+from catenary.stages.diagnosis.locate import mixture_sf
+from catenary.stages.diagnosis.model import simulate_spans
+from catenary.stages.diagnosis.problem import refit
+from catenary.stages.diagnosis.recommend import Extent, pair_question, questions, recommend
+from catenary.stages.diagnosis.runner import diagnose, make_sampler
+from catenary.stages.diagnosis.settings import DiagnosisSettings
+from catenary.stages.identification.settings import IdentificationSettings
 
 N_SPANS = 117
 NOISE_M = 0.0006               # the correction's residual per dropper [m] (docs/diagnosis.md)

@@ -11,11 +11,11 @@ import json
 import time
 from pathlib import Path
 
-from catenary.blas import one_blas_thread
-from catenary.heap import steady_heap
+from catenary.plumbing.blas import one_blas_thread
+from catenary.plumbing.heap import steady_heap
 
 one_blas_thread(override=False)
-steady_heap()       # as every rule script does (catenary.heap)
+steady_heap()       # as every rule script does (catenary.plumbing.heap)
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "results" / "benchmarks.json"

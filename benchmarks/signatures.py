@@ -21,16 +21,16 @@ import json
 import numpy as np
 from scipy import optimize
 
-from catenary.config import load_catenary
-from catenary.diagnosis.candidates import CANDIDATES
-from catenary.diagnosis.runner import make_sampler
-from catenary.diagnosis.settings import DiagnosisSettings
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.fast import FastSpanModel
-from catenary.identification.design import draw_unit_design
-from catenary.identification.settings import IdentificationSettings
-from catenary.measuring import force_influence
-from catenary.pantograph import load_pantographs
+from catenary.physics.config import load_catenary
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.fast import FastSpanModel
+from catenary.physics.measuring import force_influence
+from catenary.physics.pantograph import load_pantographs
+from catenary.stages.diagnosis.candidates import CANDIDATES
+from catenary.stages.diagnosis.runner import make_sampler
+from catenary.stages.diagnosis.settings import DiagnosisSettings
+from catenary.stages.identification.design import draw_unit_design
+from catenary.stages.identification.settings import IdentificationSettings
 
 TABLE2_SIGMA = [0.0067, 0.0050, 0.0045, 0.0045, 0.0038, 0.0044, 0.0035, 0.0034, 0.0070]
 

@@ -5,9 +5,9 @@ statistics (maximum-likelihood identification of the random inputs) live here, i
 and testable without Snakemake. SI units throughout.
 
 Importing it, or any of its modules, changes nothing in the caller's process: the allocator
-(:mod:`catenary.heap`) and the BLAS threads (:mod:`catenary.blas`) are tuned where a process
+(:mod:`catenary.plumbing.heap`) and the BLAS threads (:mod:`catenary.plumbing.blas`) are tuned where a process
 starts — the rule scripts, the benchmarks, the tests — and figures never choose Matplotlib's
-backend (:mod:`catenary.plots`).
+backend (:mod:`catenary.plumbing.plots`).
 """
 
 __version__ = "0.1.0"

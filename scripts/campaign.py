@@ -2,15 +2,15 @@
 
 import pandas as pd
 
-from catenary.campaign import campaign_masts, campaign_survey, gather_recording, truth_schema, write_recording_csv
-from catenary.config import load_catenary
-from catenary.logs import rule_logger
-from catenary.parquet import config_hash, read_table, write_table
-from catenary.recording import RECORDING_SCHEMA
-from catenary.truth import draw_line, load_truth
-from catenary.heap import steady_heap
+from catenary.measurement.campaign import campaign_masts, campaign_survey, gather_recording, truth_schema, write_recording_csv
+from catenary.measurement.recording import RECORDING_SCHEMA
+from catenary.measurement.truth import draw_line, load_truth
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import config_hash, read_table, write_table
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("campaign", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -2,16 +2,16 @@
 
 import time
 
-from catenary.campaign import simulate_section, truth_schema
-from catenary.config import load_catenary
-from catenary.logs import rule_logger
-from catenary.pantograph import load_pantographs
-from catenary.parquet import config_hash, write_table
-from catenary.recording import RECORDING_SCHEMA
-from catenary.truth import draw_line, load_truth
-from catenary.heap import steady_heap
+from catenary.measurement.campaign import simulate_section, truth_schema
+from catenary.measurement.recording import RECORDING_SCHEMA
+from catenary.measurement.truth import draw_line, load_truth
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import config_hash, write_table
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("campaign_section", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

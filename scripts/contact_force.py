@@ -3,21 +3,22 @@ violation probabilities, tolerance table, sensitivity, figures and report."""
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.contact_force.draws import draw_section, replicate_seeds
-from catenary.contact_force.laws import design_laws, read_laws
-from catenary.contact_force.outputs import ContactForcePaths, write_contact_force
-from catenary.contact_force.runs import run_section
-from catenary.contact_force.draws import groups
-from catenary.contact_force.sensitivity import sobol_design, sobol_indices
-from catenary.contact_force.settings import ContactForceSettings
-from catenary.contact_force.summary import criteria_summary, tolerance_table
-from catenary.logs import rule_logger
-from catenary.pantograph import load_pantographs
-from catenary.parquet import read_table, settings_hash
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table, settings_hash
+from catenary.report.tables import write_shown
+from catenary.stages.contact_force.draws import draw_section, replicate_seeds
+from catenary.stages.contact_force.draws import groups
+from catenary.stages.contact_force.laws import design_laws, read_laws
+from catenary.stages.contact_force.outputs import ContactForcePaths, write_contact_force
+from catenary.stages.contact_force.runs import run_section
+from catenary.stages.contact_force.sensitivity import sobol_design, sobol_indices
+from catenary.stages.contact_force.settings import ContactForceSettings
+from catenary.stages.contact_force.summary import criteria_summary, tolerance_table
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("contact_force", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -49,3 +50,4 @@ replicates = replicates[replicates["case"] != "sobol"]
 write_contact_force(ContactForcePaths.in_folder(snakemake.params.folder), span_type.name, settings, replicates, nominal,
                     summary, tolerance, sobol, laws.summary(), config_hash=settings_hash(snakemake.config))
 log.info("%s: %d replicate runs gathered", span_type.name, len(replicates))
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -2,19 +2,19 @@
 
 from pathlib import Path
 
-from catenary.config import load_catenary
-from catenary.contact_force.draws import draw_section, replicate_seeds
-from catenary.contact_force.laws import design_laws, read_laws
-from catenary.contact_force.outputs import replicates_schema
-from catenary.contact_force.runs import run_case_batch, run_sobol_batch
-from catenary.contact_force.sensitivity import sobol_design
-from catenary.contact_force.settings import ContactForceSettings, batch_replicates
-from catenary.logs import rule_logger
-from catenary.pantograph import load_pantographs
-from catenary.parquet import settings_hash, write_table
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import settings_hash, write_table
+from catenary.stages.contact_force.draws import draw_section, replicate_seeds
+from catenary.stages.contact_force.laws import design_laws, read_laws
+from catenary.stages.contact_force.outputs import replicates_schema
+from catenary.stages.contact_force.runs import run_case_batch, run_sobol_batch
+from catenary.stages.contact_force.sensitivity import sobol_design
+from catenary.stages.contact_force.settings import ContactForceSettings, batch_replicates
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("contact_force_batch", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)

@@ -4,16 +4,16 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings, correct_spans, corrected_schema, profiles_schema
-from catenary.logs import rule_logger
-from catenary.model_error.correction import run_shifts, shift_columns
-from catenary.model_error.sources import ModelErrorSettings
-from catenary.pantograph import load_pantographs
-from catenary.parquet import read_table, settings_hash, write_table
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table, settings_hash, write_table
+from catenary.stages.correction import CorrectionSettings, correct_spans, corrected_schema, profiles_schema
+from catenary.stages.model_error.correction import SectionBudget
+from catenary.stages.model_error.sources import ModelErrorSettings
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("correct_section", snakemake.log[0])
 section_id = snakemake.wildcards.section_id
@@ -36,23 +36,11 @@ if budget.enabled and not measure:
     log.info("section %s: model-error budget measured on other sections (model_error.sections_per_span_type %d)",
              section_id, budget.sections_per_span_type)
 n_max = max(catenary.span_type(t).n_droppers for t in snakemake.params.span_types)
-shifts = []
-
-
-def measure_budget(rows, result, run_pantograph, speed_m_s, direction, profile):
-    """The model-error budget's shift of this run's corrected W, one row per span and source."""
-    shifts.append(run_shifts(rows, result, catenary, run_pantograph, speed_m_s, budget.sources, mode=settings.mode,
-                             time_step_s=settings.time_step_s, direction=direction, speed_profile=profile,
-                             n_max=n_max))
-    log.info("section %s, run %s: model-error budget measured for %d sources", section_id, rows["run_id"].iloc[0],
-             len(budget.sources))
-
-
+measure_budget = SectionBudget(catenary, budget.sources, settings.mode, settings.time_step_s, n_max, log)
 corrected, convergence, corrected_profiles = correct_spans(spans, catenary, pantograph, settings, log=log,
                                                            report=report, after_run=measure_budget if measure else None,
                                                            profiles=profiles)
-(pd.concat(shifts, ignore_index=True) if shifts else pd.DataFrame(columns=shift_columns(n_max))).to_parquet(
-    snakemake.output.model_error, index=False)
+measure_budget.table().to_parquet(snakemake.output.model_error, index=False)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
             config_hash=settings_hash(snakemake.config), kind="corrected_section")
 write_table(corrected_profiles, Path(snakemake.output.profiles), profiles_schema(),

@@ -4,14 +4,15 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.correction import corrected_of_type, corrected_schema, correction_summary, profiles_schema
-from catenary.logs import rule_logger
-from catenary.model_error.budget import w_budget
-from catenary.parquet import read_table, settings_hash, write_table
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table, settings_hash, write_table
+from catenary.report.tables import write_shown
+from catenary.stages.correction import corrected_of_type, corrected_schema, correction_summary, profiles_schema
+from catenary.stages.model_error.budget import w_budget
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("correction", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -44,3 +45,4 @@ for row in budget.itertuples():
     log.info("%s dropper %d: correction %.3f mm, model-error systematic %.3f mm per σ (ratio %.1f; dominant %s)",
              row.span_type, row.dropper, 1e3 * row.correction_mean_m, 1e3 * row.systematic_m,
              row.correction_over_systematic, row.dominant_source)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -2,12 +2,13 @@
 
 import pandas as pd
 
-from catenary.truth_checks import correction_round_trip
-from catenary.logs import rule_logger
-from catenary.parquet import read_table
-from catenary.heap import steady_heap
+from catenary.measurement.truth_checks import correction_round_trip
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("correction_check", snakemake.log[0])
 truth = read_table(snakemake.input.truth)
@@ -17,3 +18,4 @@ for span_type, corrected, spans in zip(snakemake.params.span_types, snakemake.in
     rows.append({"span_type": span_type, **figures})
     log.info("%s: %s", span_type, figures)
 pd.DataFrame(rows).to_csv(snakemake.output.summary, index=False, float_format="%.6g")
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -8,7 +8,7 @@ start 6 spinning threads on 2 cores (measured: the small profile's diagnosis 4×
 they are reset here, before NumPy loads.
 """
 
-from catenary.blas import one_blas_thread
+from catenary.plumbing.blas import one_blas_thread
 
 one_blas_thread(override=True)
 
@@ -16,29 +16,30 @@ import dataclasses  # noqa: E402
 import numpy as np  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from catenary.config import load_catenary  # noqa: E402
-from catenary.diagnosis.candidates import register_plugins  # noqa: E402
-from catenary.diagnosis.span_effects import MeasuringSetup, span_candidates, test_span_effects  # noqa: E402
-from catenary.effects import load_modules  # noqa: E402
-from catenary.correction import CorrectionSettings  # noqa: E402
-from catenary.diagnosis.inputs import measuring_pass_of, profile_check_of  # noqa: E402
-from catenary.diagnosis.outputs import DiagnosisPaths, write_line_diagnosis  # noqa: E402
-from catenary.diagnosis.runner import diagnose_line  # noqa: E402
-from catenary.diagnosis.settings import DiagnosisSettings  # noqa: E402
-from catenary.identification.data import read_corrected, span_places  # noqa: E402
-from catenary.identification.settings import IdentificationSettings  # noqa: E402
-from catenary.logs import rule_logger  # noqa: E402
-from catenary.maintenance.settings import MaintenanceSettings  # noqa: E402
-from catenary.channels.assemble import read_observations  # noqa: E402
-from catenary.channels.settings import MeasurementSettings  # noqa: E402
-from catenary.diagnosis.recommend import Extent, questions, recommend  # noqa: E402
-from catenary.model_error.propagation import span_shifts  # noqa: E402
-from catenary.model_error.sources import ModelErrorSettings  # noqa: E402
-from catenary.pantograph import load_pantographs  # noqa: E402
-from catenary.parquet import read_table  # noqa: E402
-from catenary.heap import steady_heap  # noqa: E402
+from catenary.measurement.channels.assemble import read_observations  # noqa: E402
+from catenary.measurement.channels.settings import MeasurementSettings  # noqa: E402
+from catenary.physics.config import load_catenary  # noqa: E402
+from catenary.physics.effects import load_modules  # noqa: E402
+from catenary.physics.pantograph import load_pantographs  # noqa: E402
+from catenary.plumbing.heap import steady_heap  # noqa: E402
+from catenary.plumbing.logs import rule_logger  # noqa: E402
+from catenary.plumbing.parquet import read_table  # noqa: E402
+from catenary.report.tables import write_shown  # noqa: E402
+from catenary.stages.correction import CorrectionSettings  # noqa: E402
+from catenary.stages.diagnosis.candidates import register_plugins  # noqa: E402
+from catenary.stages.diagnosis.inputs import measuring_pass_of, profile_check_of  # noqa: E402
+from catenary.stages.diagnosis.outputs import DiagnosisPaths, write_line_diagnosis  # noqa: E402
+from catenary.stages.diagnosis.recommend import Extent, questions, recommend  # noqa: E402
+from catenary.stages.diagnosis.runner import diagnose_line  # noqa: E402
+from catenary.stages.diagnosis.settings import DiagnosisSettings  # noqa: E402
+from catenary.stages.diagnosis.span_effects import MeasuringSetup, span_candidates, span_effect_fitter  # noqa: E402
+from catenary.stages.identification.data import read_corrected, span_places  # noqa: E402
+from catenary.stages.identification.propagation import span_shifts  # noqa: E402
+from catenary.stages.identification.settings import IdentificationSettings  # noqa: E402
+from catenary.stages.maintenance.settings import MaintenanceSettings  # noqa: E402
+from catenary.stages.model_error.sources import ModelErrorSettings  # noqa: E402
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("diagnose", snakemake.log[0])
 own = load_modules(snakemake.params.effects_modules)
@@ -76,40 +77,28 @@ log.info("%s: whole profiles of %d spans read between the droppers: noise %.3f m
          "%.2f m)", span_type.name, len(profile), 1e3 * noise.std_m, noise.ar1, noise.step_m)
 extra = None
 if snakemake.params.model_error_enabled:
-    shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
-                         span_type.n_droppers, read_table(snakemake.input.corrected))
-    extra = sum((b.T @ b) / b.shape[0] for b in shifts.w_m.values()) if shifts.w_m else None
-local = span_candidates(settings.candidates)
-
-
-def fit_local(span_ids):
-    """The user's span-scope effects fitted on the spans the final model does not explain."""
-    return test_span_effects(local, span_ids, profile_check.profiles, span_type, catenary, noise,
-                             settings.span_check().profile, settings.level, influences=profile_check.influences,
-                             directions=profile_check.directions, log=log,
-                             measuring=MeasuringSetup(pantograph.with_static_force(measuring.force_n),
-                                                      measuring.speed_m_s, correction.mode, correction.time_step_s))
-
-
+    extra = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
+                        span_type.n_droppers, read_table(snakemake.input.corrected)).covariance_m2()
+fit_local = span_effect_fitter(span_candidates(settings.candidates), profile_check, span_type, catenary,
+                               settings.span_check().profile, settings.level,
+                               MeasuringSetup(pantograph.with_static_force(measuring.force_n), measuring.speed_m_s,
+                                              correction.mode, correction.time_step_s), log=log)
 places = span_places(read_table(snakemake.input.corrected), data.span_id)
 line = diagnose_line(span_type, catenary, data, places,
-                     identification, settings, profile=profile, extra_covariance_m2=extra,
-                     span_effects=fit_local if local else None,
+                     identification, settings, profile=profile, extra_covariance_m2=extra, span_effects=fit_local,
                      force_influence_m_n=measuring.influence_m_n, declared_force_n=measuring.force_n,
                      workers=snakemake.threads, n_left_out=len(data.left_out), log=log)
 # What to measure next: every question W alone leaves open, and the car — whether W can tell its force
-# from the declared one within the model-error budget's 95 % bound (two standard uncertainties).
-force_sources = [src for src in ModelErrorSettings.from_mapping(snakemake.params.model_error).sources
-                 if src.input == "force_n"]
-car_force_n = (2.0 * (force_sources[0].std or force_sources[0].relative_std * measuring.force_n)
-               if force_sources and snakemake.params.model_error_enabled else None)
-n_sections = max(int(places["section_id"].nunique()), 1)
-asked = questions(line.run, car_force_n=car_force_n)
-recommendations = recommend(line.run.context, asked, measurements,
-                            Extent(line.run.n_spans, n_sections, line.run.n_spans + n_sections), settings.power)
+# from the declared one within the model-error budget's 95 % bound.
+budget = ModelErrorSettings.from_mapping(snakemake.params.model_error)
+asked = questions(line.run, car_force_n=budget.force_bound_n(measuring.force_n)
+                  if snakemake.params.model_error_enabled else None)
+recommendations = recommend(line.run.context, asked, measurements, Extent.of_line(line.run.n_spans, places),
+                            settings.power)
 for r in recommendations[recommendations["recommended"]].itertuples():
     log.info("%s: %s — %s: measure %s on %d (%s; %.3g h), predicted power %.2f%s", span_type.name, r.kind, r.question,
              r.quantity, r.extent, r.per, r.cost_h, r.power, "" if r.enough else " (not enough)")
 write_line_diagnosis(line, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent), recommendations)
 log.info("%s: named %s in %.0f s; %d spans unexplained", span_type.name, line.run.named or "nothing", line.run.time_s,
          line.check.n_unexplained)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

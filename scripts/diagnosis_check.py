@@ -4,14 +4,15 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.diagnosis.validation import diagnosis_check
-from catenary.logs import rule_logger
-from catenary.parquet import read_table
-from catenary.truth import load_truth
-from catenary.heap import steady_heap
+from catenary.measurement.truth import load_truth
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
+from catenary.stages.diagnosis.validation import diagnosis_check
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("diagnosis_check", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -25,3 +26,4 @@ for _, r in table.iterrows():
     log.info("%s %s step %d: %s %s %s = %.6g ± %.3g (planted %.6g, realized %.6g, z %+.2f)", r["campaign"],
              r["span_type"], r["step"], r["verdict"], r["effect"], r["parameter"], r["identified"],
              r["standard_error"], r["planted_magnitude"], r["realized_magnitude"], r["z"])
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -2,12 +2,13 @@
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.logs import rule_logger
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.report.tables import write_shown
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("dropper_table", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -21,3 +22,4 @@ table = pd.DataFrame({
 })
 table.to_csv(snakemake.output.table, index=False, float_format="%.6f")
 log.info("span type %s: dropper lengths [m] %s", span_type.name, result.dropper_lengths_m.round(4).tolist())
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

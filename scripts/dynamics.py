@@ -3,17 +3,18 @@ beside the EN 50318:2002 reference ranges, and a figure."""
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.contact_statistics import contact_statistics, en50318_table
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.dynamics import CatenaryDynamics, run_pantograph
-from catenary.logs import rule_logger
-from catenary.pantograph import load_pantographs
-from catenary.plots import dynamics_figure
-from catenary.section import uniform_section
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.physics.contact_statistics import contact_statistics, en50318_table
+from catenary.physics.contact_statistics import dynamics_figure
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.dynamics import CatenaryDynamics, run_pantograph
+from catenary.physics.pantograph import load_pantographs
+from catenary.physics.section import uniform_section
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.report.tables import write_shown
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("dynamics", snakemake.log[0])
 p = snakemake.params.dynamics
@@ -37,3 +38,4 @@ table.to_csv(snakemake.output.statistics, index=False, float_format="%.4f")
 dynamics_figure(runs, masts, window, f"{span_type.name}: {p['n_spans']} spans, {pantograph.name}",
                 snakemake.output.figure, cutoff_hz=p["filter_cutoff_hz"])
 log.info("statistics:\n%s", table.to_string(index=False))
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

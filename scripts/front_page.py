@@ -1,21 +1,15 @@
-"""Rule front_page: the HTML report's opening panel (catenary.front_page)."""
+"""Rule front_page: the HTML report's opening panel (catenary.report.front_page)."""
 
-from catenary.front_page import write_front_page
-from catenary.logs import rule_logger
-from catenary.registration import RegistrationSettings
-from catenary.heap import steady_heap
+from catenary.measurement.registration import RegistrationSettings
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.report.front_page import write_front_page
+from catenary.stages.contact_force.settings import ContactForceSettings
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("front_page", snakemake.log[0])
-inputs = dict(snakemake.input.items())
-types = [key.removeprefix("s_opt_") for key in inputs if key.startswith("s_opt_")]
-path = write_front_page(snakemake.output.front_page, snakemake.input.intro, snakemake.input.spans_report,
-                        snakemake.input.correction_summary, {t: inputs[f"s_opt_{t}"] for t in types},
-                        {t: inputs.get(f"findings_{t}") for t in types},
-                        {t: inputs.get(f"model_error_{t}") for t in types}, snakemake.input.sections,
-                        RegistrationSettings.from_mapping(snakemake.params.registration).mast_table_std_m,
-                        {t: (inputs[f"spans_{t}"], inputs[f"sections_{t}"]) if f"spans_{t}" in inputs else None
-                         for t in types},
-                        {t: inputs.get(f"recommendations_{t}") for t in types})
-log.info("front page for %s written to %s", ", ".join(types) or "no span type", path)
+limits = {t: ContactForceSettings.from_mapping(block).limits for t, block in snakemake.params.contact_force.items()}
+path = write_front_page(snakemake.output.front_page, snakemake.input.intro, dict(snakemake.input.items()),
+                        RegistrationSettings.from_mapping(snakemake.params.registration).mast_table_std_m, limits)
+log.info("front page for %s written to %s", ", ".join(limits) or "no span type", path)

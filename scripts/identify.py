@@ -2,21 +2,21 @@
 
 from pathlib import Path
 
-from catenary.channels.assemble import IDENTIFIED_QUANTITIES, read_observations
-from catenary.channels.settings import MeasurementSettings
-from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings
-from catenary.identification.outputs import IdentificationPaths, write_identification
-from catenary.identification.data import read_corrected
-from catenary.identification.runner import run_identification
-from catenary.identification.settings import IdentificationSettings
-from catenary.logs import rule_logger
-from catenary.model_error.propagation import span_shifts
-from catenary.parquet import read_table, settings_hash
-from catenary.repeatability import read_noise
-from catenary.heap import steady_heap
+from catenary.measurement.channels.settings import MeasurementSettings
+from catenary.measurement.repeatability import read_noise
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table, settings_hash
+from catenary.report.tables import write_shown
+from catenary.stages.correction import CorrectionSettings
+from catenary.stages.identification.data import identification_observations, read_corrected
+from catenary.stages.identification.outputs import IdentificationPaths, write_identification
+from catenary.stages.identification.propagation import span_shifts
+from catenary.stages.identification.runner import run_identification
+from catenary.stages.identification.settings import IdentificationSettings
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("identify", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -28,14 +28,10 @@ data = read_corrected(snakemake.input.corrected, span_type, flagged)
 log.info("%s: %d converged spans used, %d left out", span_type.name, data.w_m.shape[0], len(data.left_out))
 for span_id, why in data.left_out:
     log.info("left out %s: %s", span_id, why)
-observations = None
-if settings.estimator == "gaussian":         # the quantities the identification's model gives, read with W
-    observations, _ = read_observations(data.span_id, snakemake.input.spans,
-                                        snakemake.input.survey[0] if snakemake.input.survey else None,
-                                        MeasurementSettings.from_mapping(snakemake.params.measurements),
-                                        CorrectionSettings.from_mapping(snakemake.params.correction).force_n,
-                                        IDENTIFIED_QUANTITIES)
-    observations = None if observations.empty else observations
+observations = identification_observations(settings.estimator, data.span_id, snakemake.input.spans,
+                                           snakemake.input.survey[0] if snakemake.input.survey else None,
+                                           MeasurementSettings.from_mapping(snakemake.params.measurements),
+                                           CorrectionSettings.from_mapping(snakemake.params.correction).force_n)
 w_shifts = None
 if snakemake.params.model_error_enabled:
     w_shifts = span_shifts(read_table(snakemake.input.model_error), span_type.name, data.span_id,
@@ -59,3 +55,4 @@ for row in run.result.table_rows():
     log.info("s_opt %-22s mu %.6g ± %.3g  sigma %.4g ± %.3g%s", row["parameter"], row["mu"], row["mu_se"],
              row["sigma"], row["sigma_se"], "  (mean fixed)" if row["mu_fixed"] else "")
 log.info("%s: done in %.1f s", span_type.name, run.total_time_s)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

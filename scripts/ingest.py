@@ -1,11 +1,11 @@
 """Rule ingest: check the recording file(s) and the masts file and write them as Parquet."""
 
-from catenary.logs import rule_logger
-from catenary.parquet import settings_hash
-from catenary.recording import read_masts, read_recordings, runs_table, write_masts, write_recording
-from catenary.heap import steady_heap
+from catenary.measurement.recording import read_masts, read_recordings, runs_table, write_masts, write_recording
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import settings_hash
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("ingest", snakemake.log[0])
 digest = settings_hash(snakemake.config)

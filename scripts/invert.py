@@ -3,15 +3,16 @@ Table 1, Fig. 8)."""
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.inversion import (converged_spans, dropper_statistics, droppers_schema, invert_spans,
+from catenary.physics.config import load_catenary
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.stages.inversion import (converged_spans, dropper_statistics, droppers_schema, invert_spans,
                                 min_correlation, pearson_figure, pearson_matrix, w_columns)
-from catenary.logs import rule_logger
-from catenary.parquet import read_table, settings_hash, write_table
-from catenary.heap import steady_heap
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table, settings_hash, write_table
+from catenary.report.tables import write_shown
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("invert", snakemake.log[0])
 p = snakemake.params.inversion
@@ -38,3 +39,4 @@ pearson_figure(corr, snakemake.output.pearson,
 log.info("Table 1 analogue:\n%s", table.to_string(index=False))
 log.info("Pearson correlation, minimum over droppers 3…%d: %.3f", n - 2, min_correlation(corr, 3, n - 2))
 log.info("Pearson matrix:\n%s", pd.DataFrame(corr, index=range(1, n + 1), columns=range(1, n + 1)).round(3))
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -2,20 +2,21 @@
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.identification.data import read_corrected
-from catenary.identification.settings import IdentificationSettings
-from catenary.logs import rule_logger
-from catenary.maintenance.figures import chainage_figure, population_band_figure
-from catenary.maintenance.runner import run_maintenance
-from catenary.maintenance.settings import MaintenanceSettings
-from catenary.model_error.propagation import span_shifts
-from catenary.maintenance.outputs import write_bands, write_maintenance
-from catenary.parquet import read_table, settings_hash
-from catenary.repeatability import read_noise
-from catenary.heap import steady_heap
+from catenary.measurement.repeatability import read_noise
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table, settings_hash
+from catenary.report.tables import write_shown
+from catenary.stages.identification.data import read_corrected
+from catenary.stages.identification.propagation import span_shifts
+from catenary.stages.identification.settings import IdentificationSettings
+from catenary.stages.maintenance.figures import chainage_figure, population_band_figure
+from catenary.stages.maintenance.outputs import write_bands, write_maintenance
+from catenary.stages.maintenance.runner import run_maintenance
+from catenary.stages.maintenance.settings import MaintenanceSettings
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("maintenance", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -57,3 +58,4 @@ if run.bands is not None:
              cov["posterior_coverage_loo"].mean(), cov["prior_coverage"].mean(), identification.band_level)
 population_band_figure(run.bands, data.w_m, span_type.dropper_positions_m, snakemake.output.band_figure,
                        f"{span_type.name}: the population's posterior band beside the prior band")
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

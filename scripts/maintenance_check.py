@@ -2,12 +2,13 @@
 
 import pandas as pd
 
-from catenary.logs import rule_logger
-from catenary.maintenance.validation import coverage_check, list_check
-from catenary.parquet import read_table
-from catenary.heap import steady_heap
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
+from catenary.stages.maintenance.validation import coverage_check, list_check
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("maintenance_check", snakemake.log[0])
 truth = read_table(snakemake.input.truth)
@@ -25,3 +26,4 @@ for row in coverage.itertuples():
     log.info("%s %-22s 90 %% interval covers the truth in %.0f %% of %d spans (± %.0f %%); RMS error of the mean "
              "%.4g (dropper-only inversion %.4g)", row.span_type, row.input, 100 * row.coverage_90, row.n_spans,
              100 * row.coverage_se, row.rmse_posterior_mean, row.rmse_dropper_only)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -2,15 +2,16 @@
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.contact_force.settings import ContactForceSettings
-from catenary.logs import rule_logger
-from catenary.maintenance.repair import fixing_buys, repair_summary
-from catenary.pantograph import load_pantographs
-from catenary.parquet import read_table
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
+from catenary.stages.contact_force.settings import ContactForceSettings
+from catenary.stages.maintenance.repair import fixing_buys, repair_summary
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("maintenance_repair", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -30,3 +31,4 @@ for row in summary.dropna(subset=["speed_kmh"]).itertuples():
     log.info("%s %s–%s at %.0f km/h, repairing %s: σ_F %+.2f N, Fm − 3σ margin %+.2f N", row.section_id,
              row.first_span_id, row.last_span_id, row.speed_kmh, row.listed, row.std_force_change_n,
              row.statistical_min_margin_change_n)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -4,20 +4,21 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings
-from catenary.errors import InputError
-from catenary.logs import rule_logger
-from catenary.pantograph import load_pantographs
-from catenary.parquet import read_table, settings_hash
-from catenary.projection import ProjectionSettings, project, write_projection
-from catenary.recording import read_masts, runs_table
-from catenary.registration import RegistrationSettings
-from catenary.registration.lag import measuring_lag
-from catenary.registration.outputs import read_registration
-from catenary.heap import steady_heap
+from catenary.measurement.projection import ProjectionSettings, project, write_projection
+from catenary.measurement.recording import read_masts, runs_table
+from catenary.measurement.registration import RegistrationSettings
+from catenary.measurement.registration.outputs import read_registration
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.errors import InputError
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table, settings_hash
+from catenary.report.tables import write_shown
+from catenary.stages.correction import CorrectionSettings
+from catenary.stages.correction import measuring_lag
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("project", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -44,3 +45,4 @@ if result.n_used == 0:
         "expected a recording that covers the masts' chainages (same line, metres)")
 write_projection(result, Path(snakemake.output.report).parent, config_hash=settings_hash(snakemake.config),
                  span_types=snakemake.params.span_types, catenary=catenary)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

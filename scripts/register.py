@@ -2,18 +2,19 @@
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings
-from catenary.logs import rule_logger
-from catenary.pantograph import load_pantographs
-from catenary.parquet import read_table
-from catenary.recording import run_samples, validate_masts
-from catenary.registration import RegistrationSettings, masts_from_trace, register_run, unregistered_run
-from catenary.registration.lag import measuring_lag
-from catenary.registration.outputs import registration_figure, write_registration
-from catenary.heap import steady_heap
+from catenary.measurement.recording import run_samples, validate_masts
+from catenary.measurement.registration import RegistrationSettings, masts_from_trace, register_run, unregistered_run
+from catenary.measurement.registration.outputs import registration_figure, write_registration
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
+from catenary.stages.correction import CorrectionSettings
+from catenary.stages.correction import measuring_lag
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("register", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -40,3 +41,4 @@ for run_id in run_ids:
     runs.append(run)
 write_registration(runs, snakemake.output.masts, snakemake.output.sections)
 registration_figure(pd.concat([r.masts for r in runs], ignore_index=True), snakemake.output.figure)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

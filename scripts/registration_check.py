@@ -2,12 +2,13 @@
 
 import pandas as pd
 
-from catenary.logs import rule_logger
-from catenary.parquet import read_table
-from catenary.truth_checks import registration_round_trip
-from catenary.heap import steady_heap
+from catenary.measurement.truth_checks import registration_round_trip
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("registration_check", snakemake.log[0])
 masts = pd.read_csv(snakemake.input.masts, dtype={"run_id": str, "section_id": str, "mast_id": str})
@@ -19,3 +20,4 @@ for row in table.itertuples():
              "error RMS %.3f m (trace %.3f m, table %.3f m), max %.3f m", row.run_id, row.n_found, row.n_true_masts,
              row.n_missing_found, row.n_missing_planted, row.n_extra_dropped, row.n_extra_planted, row.rms_error_m,
              row.rms_error_trace_m, row.rms_error_table_m, row.max_error_m)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -1,12 +1,13 @@
 """Rule repeatability: the measurement's repeatability of one span type, from its spans measured
 by several runs, and the spans whose runs disagree beyond it."""
 
-from catenary.logs import rule_logger
-from catenary.parquet import read_table
-from catenary.repeatability import estimate_repeatability
-from catenary.heap import steady_heap
+from catenary.measurement.repeatability import estimate_repeatability
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("repeatability", snakemake.log[0])
 corrected = read_table(snakemake.input.corrected)
@@ -25,3 +26,4 @@ else:
                  snakemake.wildcards.span_type, 1e3 * result.measured_rms_m, result.measured_dof)
     for span, why in result.flagged().items():
         log.warning("span %s: %s", span, why)
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -3,12 +3,13 @@ the truth's split of their scatter into sensor noise and correction."""
 
 import pandas as pd
 
-from catenary.logs import rule_logger
-from catenary.parquet import read_table
-from catenary.truth_checks import repeatability_round_trip
-from catenary.heap import steady_heap
+from catenary.measurement.truth_checks import repeatability_round_trip
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("repeatability_check", snakemake.log[0])
 truth = read_table(snakemake.input.truth)
@@ -31,3 +32,4 @@ for span_type, summary, corrected, spans in zip(snakemake.params.span_types, sna
              1e3 * row["within_total_m"], 1e3 * row["within_sensor_m"], 1e3 * row["within_correction_m"],
              row["n_spans"])
 pd.DataFrame(rows).to_csv(snakemake.output.summary, index=False, float_format="%.6g")
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -4,13 +4,13 @@ from pathlib import Path
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.logs import rule_logger
-from catenary.plots import sensitivity_figures
-from catenary.sensitivity import run_sensitivity
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.report.tables import write_shown
+from catenary.stages.sensitivity import run_sensitivity, sensitivity_figures
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("sensitivity", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -20,3 +20,4 @@ summary = pd.DataFrame(result.summary_rows())
 summary.to_csv(snakemake.output.summary, index=False, float_format="%.4f")
 sensitivity_figures(result, Path(snakemake.output.summary).parent)
 log.info("sensitivity summary:\n%s", summary.to_string(index=False))
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

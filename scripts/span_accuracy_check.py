@@ -4,14 +4,14 @@ estimated accuracy against the campaign's truth."""
 import numpy as np
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.logs import rule_logger
-from catenary.parquet import read_table
-from catenary.truth import load_truth
-from catenary.truth_checks import span_accuracy_round_trip
-from catenary.heap import steady_heap
+from catenary.measurement.truth import load_truth
+from catenary.measurement.truth_checks import span_accuracy_round_trip
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("span_accuracy_check", snakemake.log[0])
 spec = load_truth(snakemake.input.campaign, load_catenary(snakemake.input.catenary))

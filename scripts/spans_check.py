@@ -2,14 +2,15 @@
 
 import pandas as pd
 
-from catenary.config import load_catenary
-from catenary.diagnosis.validation import span_check_validation
-from catenary.logs import rule_logger
-from catenary.parquet import read_table
-from catenary.truth import load_truth
-from catenary.heap import steady_heap
+from catenary.measurement.truth import load_truth
+from catenary.physics.config import load_catenary
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.plumbing.parquet import read_table
+from catenary.report.tables import write_shown
+from catenary.stages.diagnosis.validation import span_check_validation
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("spans_check", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -27,3 +28,4 @@ for span_type, spans, sections, listed in zip(snakemake.params.span_types, snake
     log.info("%s", row)
     rows.append(row)
 pd.DataFrame(rows).to_csv(snakemake.output.summary, index=False, float_format="%.6g")
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -1,13 +1,14 @@
 """Rule tension_impact: paper Fig. 6 analogue, measured sags of two catenaries with the same
 static sag at two messenger-wire tensions."""
 
-from catenary.config import load_catenary
-from catenary.logs import rule_logger
-from catenary.pantograph import load_pantographs
-from catenary.tension_impact import tension_impact, tension_impact_figure
-from catenary.heap import steady_heap
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.heap import steady_heap
+from catenary.plumbing.logs import rule_logger
+from catenary.report.tables import write_shown
+from catenary.stages.tension_impact import tension_impact, tension_impact_figure
 
-steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.heap)
+steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("tension_impact", snakemake.log[0])
 p = snakemake.params.tension_impact
@@ -25,3 +26,4 @@ log.info("%s: dropper lengths of the central span [m]\n  T_MW %s N: %s\n  T_MW %
          p["messenger_tensions_n"][0], result.dropper_lengths_m[0].round(4).tolist(),
          p["messenger_tensions_n"][1], result.dropper_lengths_m[1].round(4).tolist())
 log.info("summary:\n%s", summary.to_string(index=False))
+write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -1,15 +1,15 @@
 """Shared fixtures: the project's catenary data, loaded once.
 
 One BLAS thread per process unless the caller set one, before NumPy loads
-(:mod:`catenary.blas`; measured: the diagnosis's workers test 59.5 s with OpenBLAS's default
+(:mod:`catenary.plumbing.blas`; measured: the diagnosis's workers test 59.5 s with OpenBLAS's default
 threads, 10.8 s with one; the restart test 34.5 s and 4.8 s), and the steady heap
-(:mod:`catenary.heap`), as the rule scripts set both where their process starts.
+(:mod:`catenary.plumbing.heap`), as the rule scripts set both where their process starts.
 """
 
 import sys
 
-from catenary.blas import one_blas_thread
-from catenary.heap import steady_heap
+from catenary.plumbing.blas import one_blas_thread
+from catenary.plumbing.heap import steady_heap
 
 one_blas_thread(override=False)
 steady_heap()
@@ -23,8 +23,8 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest
 
-from catenary.config import load_catenary
-from catenary.identification.design import default_inputs
+from catenary.physics.config import load_catenary
+from catenary.stages.identification.design import default_inputs
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -82,7 +82,7 @@ def identify_line(span_type, catenary, w_m, mast_pairs, settings):
     """Identify a replicate line's W as the rule does (its settings' design, N and neighbours,
     sandwich standard errors over the spans that share a mast), without profiles: the
     likelihood, the start and the result."""
-    from catenary.identification.fit import identify, make_likelihood
+    from catenary.stages.identification.fit import identify, make_likelihood
 
     start = settings.start_inputs(span_type, catenary)
     lik = make_likelihood(span_type, catenary, w_m, start=start, n_samples=settings.n_samples,

@@ -7,12 +7,12 @@ import pandas as pd
 import pytest
 import yaml
 
-from catenary.campaign import simulate_section
-from catenary.errors import ConfigError
-from catenary.pantograph import load_pantographs
-from catenary.campaign import section_model
-from catenary.dropper_table import dropper_lengths_for_cw_heights
-from catenary.truth import draw_line, truth_from_dict
+from catenary.measurement.campaign import simulate_section
+from catenary.measurement.campaign import section_model
+from catenary.measurement.truth import draw_line, truth_from_dict
+from catenary.physics.dropper_table import dropper_lengths_for_cw_heights
+from catenary.physics.pantograph import load_pantographs
+from catenary.plumbing.errors import ConfigError
 
 from .conftest import ROOT
 
@@ -119,9 +119,9 @@ def test_simulated_section_is_consistent_and_deterministic(raw, catenary):
 
 
 def _simulated(raw, catenary, tmp_path, name):
-    from catenary.campaign import masts_table, truth_schema
-    from catenary.parquet import write_table
-    from catenary.recording import RECORDING_SCHEMA
+    from catenary.measurement.campaign import masts_table, truth_schema
+    from catenary.plumbing.parquet import write_table
+    from catenary.measurement.recording import RECORDING_SCHEMA
 
     r = small(raw, n_spans=3, sections=2, seed=11)
     r["line"]["sections"][1]["span_type"] = "N3"
@@ -152,9 +152,9 @@ def test_campaign_files_are_byte_identical_for_the_same_seed(raw, catenary, tmp_
 def test_round_trip_through_ingestion_and_projection(raw, catenary, tmp_path):
     # Noise 1 mm, quantisation 1 mm, drop-outs and ±5 cm spikes: the robust projection must
     # still give the truth's W under the measuring pass within 1 mm RMS.
-    from catenary.truth_checks import projection_round_trip
-    from catenary.projection import ProjectionSettings, project
-    from catenary.recording import read_masts, read_recording
+    from catenary.measurement.truth_checks import projection_round_trip
+    from catenary.measurement.projection import ProjectionSettings, project
+    from catenary.measurement.recording import read_masts, read_recording
 
     out, _, truth = _simulated(raw, catenary, tmp_path, "rt")
     result = project(read_recording(out / "recording.parquet"), read_masts(out / "masts.csv"), catenary,
@@ -200,7 +200,7 @@ def test_spans_found_without_a_table_match_the_truth_in_the_recorded_chainage():
     # No mast table: the masts' chainage frame is the recording's, offset 7 m and scaled 0.3 %
     # from the line's. Matching by chainage finds nothing; by each run's recorded chainage (the
     # masts' recorded_chainage_m against the truth's recorded ends) every span, a reverse run too.
-    from catenary.truth_checks import match_spans
+    from catenary.measurement.truth_checks import match_spans
 
     true_x = np.array([0.0, 58.5, 117.0, 175.5])
     truth = pd.DataFrame({"span_id": ["A", "B", "C"], "start_chainage_m": true_x[:-1], "end_chainage_m": true_x[1:]})
@@ -225,7 +225,7 @@ def test_repeatability_round_trip_splits_the_runs_scatter_into_sensor_and_correc
     # Two runs over three spans. Run 1's projected W is the true dynamic W + a, run 2's − a; the
     # correction leaves + b on both (same direction) or + b and − b: within-span scatter of two
     # runs differing by d is |d|/√2, so sensor a√2, correction 0 or b√2, total (a or a + b)√2.
-    from catenary.truth_checks import repeatability_round_trip
+    from catenary.measurement.truth_checks import repeatability_round_trip
 
     a, b, n = 0.4e-3, 0.3e-3, 9
     x = np.array([0.0, 58.5, 117.0, 175.5])

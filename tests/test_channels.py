@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from catenary.channels.observations import LineObservation, Observations, joint_log_density, line_log_density
-from catenary.channels.quantities import QUANTITIES, model_columns, observe
-from catenary.channels.wear import residual_thickness_m, segment_area_m2, wear_depth_m, wear_fraction
-from catenary.config import Wire
-from catenary.effects import SpanParameters
+from catenary.measurement.channels.observations import LineObservation, Observations, joint_log_density, line_log_density
+from catenary.measurement.channels.quantities import QUANTITIES, model_columns, observe
+from catenary.measurement.channels.wear import residual_thickness_m, segment_area_m2, wear_depth_m, wear_fraction
+from catenary.physics.config import Wire
+from catenary.physics.effects import SpanParameters
 
 WIRE = Wire(1.35, 195.0, diameter_m=0.0148, section_area_m2=150e-6)
 
@@ -140,8 +140,8 @@ def _spans_table():
 
 
 def test_survey_errors_name_the_row_and_column(tmp_path):
-    from catenary.channels.survey import read_survey
-    from catenary.errors import InputError
+    from catenary.measurement.channels.survey import read_survey
+    from catenary.plumbing.errors import InputError
     path = tmp_path / "survey.csv"
     path.write_text("quantity,span_id,section_id,mast_id,value,std\n"
                     "messenger_tension_n,A-B,,,20400,800\n"
@@ -159,9 +159,9 @@ def test_survey_errors_name_the_row_and_column(tmp_path):
 
 
 def test_observations_place_each_value_on_its_span(tmp_path):
-    from catenary.channels.assemble import observations_for
-    from catenary.channels.settings import MeasurementSettings
-    from catenary.channels.survey import read_survey
+    from catenary.measurement.channels.assemble import observations_for
+    from catenary.measurement.channels.settings import MeasurementSettings
+    from catenary.measurement.channels.survey import read_survey
     path = tmp_path / "survey.csv"
     path.write_text("quantity,span_id,section_id,mast_id,value,std\n"
                     "cw_residual_thickness_m,A-B,,,0.0139,0.0001\n"
@@ -200,7 +200,7 @@ def test_noncentrality_reads_a_mean_only_beyond_its_calibration():
     # the price of its prior), the mean is one measurement of variance v/N + 1/p: λ = Δ²/(v/N + 1/p).
     # A null coordinate that moves exactly along the change absorbs it all: λ = 0. Exact algebra:
     # tolerance is round-off.
-    from catenary.diagnosis.recommend import noncentrality
+    from catenary.stages.diagnosis.recommend import noncentrality
     n_units, v, delta, p = 40, 0.3 ** 2, 0.2, 1.0 / 0.05 ** 2
     e = np.array([1.0])
     change = (delta * e, np.zeros((1, 1)))
@@ -218,7 +218,7 @@ def test_noncentrality_reads_a_mean_only_beyond_its_calibration():
 
 
 def test_lr_power_is_the_normal_and_chi2_power():
-    from catenary.diagnosis.locate import lr_power
+    from catenary.stages.diagnosis.locate import lr_power
     level, lam = 0.01, 9.0
     # one spread alone: one-sided √LR ~ N(√λ, 1)
     assert lr_power(lam, 0, 1, level) == pytest.approx(stats.norm.cdf(3.0 - stats.norm.isf(level)), rel=1e-9)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from catenary.chebyshev import BasisCache, StackedMap, fit_chebyshev
+from catenary.physics.chebyshev import BasisCache, StackedMap, fit_chebyshev
 
 
 def _matrix_function(n_out, n_in, seed=0):

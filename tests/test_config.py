@@ -5,8 +5,8 @@ import copy
 import pytest
 import yaml
 
-from catenary.config import catenary_from_dict, load_catenary
-from catenary.errors import ConfigError
+from catenary.physics.config import catenary_from_dict, load_catenary
+from catenary.plumbing.errors import ConfigError
 
 from .conftest import ROOT
 
@@ -50,8 +50,8 @@ def test_the_line_of_make_bench_line_is_a_thousand_spans_of_both_types(catenary)
     # through its own checks, the overlay merged into the default config against the schema.
     from snakemake.utils import update_config
 
-    from catenary.schema import check
-    from catenary.truth import load_truth
+    from catenary.plumbing.schema import check
+    from catenary.measurement.truth import load_truth
 
     spec = load_truth(ROOT / "config" / "line" / "line_1000_campaign.yaml", catenary)
     spans = {t: sum(s.n_spans for s in spec.sections if s.span_type == t) for t in ("N2", "N3")}

@@ -5,18 +5,18 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from catenary.contact_force.draws import draw_section, replicate_seeds
-from catenary.contact_force.laws import design_laws
-from catenary.contact_force.runs import CRITERIA, run_batch, run_section
-from catenary.contact_force.draws import groups
-from catenary.contact_force.sensitivity import sobol_design, sobol_indices
-from catenary.contact_force.settings import ContactForceSettings
-from catenary.contact_force.summary import clopper_pearson, quantile_interval
-from catenary.contact_statistics import contact_statistics
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.dynamics import CatenaryDynamics, run_pantograph
-from catenary.pantograph import load_pantographs
-from catenary.section import uniform_section
+from catenary.physics.contact_statistics import contact_statistics
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.dynamics import CatenaryDynamics, run_pantograph
+from catenary.physics.pantograph import load_pantographs
+from catenary.physics.section import uniform_section
+from catenary.stages.contact_force.draws import draw_section, replicate_seeds
+from catenary.stages.contact_force.draws import groups
+from catenary.stages.contact_force.laws import design_laws
+from catenary.stages.contact_force.runs import CRITERIA, run_batch, run_section
+from catenary.stages.contact_force.sensitivity import sobol_design, sobol_indices
+from catenary.stages.contact_force.settings import ContactForceSettings
+from catenary.stages.contact_force.summary import clopper_pearson, quantile_interval
 
 from .conftest import ROOT
 
@@ -107,13 +107,13 @@ def test_sobol_estimates_of_a_function_with_known_indices(catenary, n2):
     assert r.sum_first_second == pytest.approx(1.0, abs=0.2)
     assert r.sum_interval[0] < 1.0 < r.sum_interval[1]      # measured [0.94, 1.31]: the bootstrap covers the truth
     assert np.all(r.first_interval[:, 0] <= r.first_interval[:, 1])
-    from catenary.contact_force.sensitivity import SOBOL_COLUMNS
+    from catenary.stages.contact_force.sensitivity import SOBOL_COLUMNS
 
     assert tuple(r.table().columns) == SOBOL_COLUMNS          # the header a skipped sensitivity writes alone
 
 
 def test_settings_cases_and_batches_cover_every_replicate():
-    from catenary.contact_force.settings import batch_replicates, n_batches
+    from catenary.stages.contact_force.settings import batch_replicates, n_batches
 
     s = ContactForceSettings.from_mapping({"replicates": 10, "batch_size": 4})
     got = [r for b in range(n_batches(s, "identified", 9)) for r in batch_replicates(s, "identified", b, 9)[0]]
@@ -121,7 +121,7 @@ def test_settings_cases_and_batches_cover_every_replicate():
     assert s.cases() == ["identified", "sobol", "tolerance"]
     # The tolerance study's 4 × 2 combinations of 8 sections each, in batches of 4: every
     # (combination, replicate) once, the combinations' laws as the study's σ = t / 2.
-    from catenary.contact_force.settings import tolerance_replicates
+    from catenary.stages.contact_force.settings import tolerance_replicates
 
     pairs = [(c[0], r) for b in range(n_batches(s, "tolerance", 9))
              for c, rs in tolerance_replicates(s, batch_replicates(s, "tolerance", b, 9)[0]) for r in rs]
@@ -134,8 +134,8 @@ def test_settings_cases_and_batches_cover_every_replicate():
 def test_a_skipped_sensitivity_plans_no_sobol_runs_and_a_too_small_one_is_refused():
     # n_samples 0 (the default run's): no sobol batch is planned, the other cases keep theirs;
     # 1–3 are refused by the schema (the bootstrap intervals need at least 4 base samples).
-    from catenary.contact_force.settings import n_batches
-    from catenary.errors import ConfigError
+    from catenary.stages.contact_force.settings import n_batches
+    from catenary.plumbing.errors import ConfigError
 
     skipped = ContactForceSettings.from_mapping({"sensitivity": {"n_samples": 0}})
     assert not skipped.sensitivity_enabled and skipped.cases() == ["identified", "tolerance"]

@@ -4,13 +4,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catenary.correction import CorrectionSettings, consecutive_runs, correct_spans
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.errors import ConfigError
-from catenary.measuring import measuring_pass
-from catenary.pantograph import load_pantographs
-from catenary.section import uniform_section
-from catenary.static import solve_static
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.measuring import measuring_pass
+from catenary.physics.pantograph import load_pantographs
+from catenary.physics.section import uniform_section
+from catenary.physics.static import solve_static
+from catenary.plumbing.errors import ConfigError
+from catenary.stages.correction import CorrectionSettings, consecutive_runs, correct_spans
 
 from .conftest import ROOT
 
@@ -166,8 +166,8 @@ def test_only_a_solver_failure_is_reported_as_a_failed_run(catenary, n2, measuri
     # A ConvergenceError of a solve is a property of that run: the run's spans are kept, marked
     # not converged, with the reason. Any other error (here a ConfigError, as a bad pantograph or
     # mode would raise) is a configuration or programming error and must stop the correction.
-    import catenary.correction as correction
-    from catenary.errors import ConvergenceError
+    import catenary.stages.correction.runner as correction
+    from catenary.plumbing.errors import ConvergenceError
 
     truth = true_line(catenary, n2, n_spans=2)
     h_d = solve_static(truth, catenary).cw_height_at(truth.dropper_chainage_m)
@@ -197,7 +197,7 @@ def test_runs_in_opposite_directions_give_the_sensor_noise_in_their_measured_res
     # within-span scatter of those residuals (72 degrees of freedom) estimates σ with a relative
     # standard error of 1/√(2·72) = 8 %; 25 % is three of them. The corrected W's scatter also
     # holds how the two directions' corrections stop apart, so it is not asked to match.
-    from catenary.repeatability import estimate_repeatability
+    from catenary.measurement.repeatability import estimate_repeatability
 
     time_step_s, sigma = 0.005, 5e-4
     truth = true_line(catenary, n2, n_spans=8, seed=3)

@@ -5,19 +5,19 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from catenary.diagnosis.candidates import CANDIDATES
-from catenary.diagnosis.locate import mixture_sf, required_noncentrality, secant_noncentrality
-from catenary.diagnosis.model import simulate_spans
-from catenary.diagnosis.outputs import DiagnosisPaths, write_diagnosis
-from catenary.diagnosis.runner import diagnose, make_sampler
-from catenary.diagnosis.settings import DiagnosisSettings
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.effects import EFFECTS
-from catenary.identification.settings import IdentificationSettings
-from catenary.measuring import force_influence
-from catenary.pantograph import load_pantographs
-from catenary.section import uniform_section
-from catenary.static import StaticModel, solve_static
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.effects import EFFECTS
+from catenary.physics.measuring import force_influence
+from catenary.physics.pantograph import load_pantographs
+from catenary.physics.section import uniform_section
+from catenary.physics.static import StaticModel, solve_static
+from catenary.stages.diagnosis.candidates import CANDIDATES
+from catenary.stages.diagnosis.locate import mixture_sf, required_noncentrality, secant_noncentrality
+from catenary.stages.diagnosis.model import simulate_spans
+from catenary.stages.diagnosis.outputs import DiagnosisPaths, write_diagnosis
+from catenary.stages.diagnosis.runner import diagnose, make_sampler
+from catenary.stages.diagnosis.settings import DiagnosisSettings
+from catenary.stages.identification.settings import IdentificationSettings
 
 from .conftest import ROOT, TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N, TABLE2_SYSTEM_HEIGHT_M
 
@@ -223,7 +223,7 @@ def test_spans_without_a_missing_effect_give_none_detected(catenary, n2):
 def test_too_few_spans_are_refused_before_any_fit(catenary, n2):
     # the paper's first model has 12 parameters (10 σ, T_MW and ΔH means): 2 spans cannot determine
     # them; the diagnosis refuses as the identification does, naming the spans lost upstream
-    from catenary.errors import InputError
+    from catenary.plumbing.errors import InputError
 
     sampler = make_sampler(n2, catenary, IDENT, SETTINGS, ())
     means, sigmas = _laws(sampler)
@@ -256,7 +256,7 @@ def test_the_sandwich_of_the_verdicts_candidates_gives_the_verdict_of_every_sand
     import dataclasses
     from types import SimpleNamespace
 
-    from catenary.diagnosis import refits, runner
+    from catenary.stages.diagnosis import refits, runner
 
     level = 0.01
     factors = {"a": 40.0, "b": 1.2, "c": 3.0, "d": 1.0}
@@ -307,7 +307,7 @@ def test_a_leading_refit_that_spent_its_budget_is_restarted_and_only_gains(caten
     # adds up); the others keep their single run. A budget of 60 evaluations stops every
     # Nelder–Mead refit of these 14-coordinate models (it needs hundreds): the two best must show
     # more than 60 evaluations and a Δℓ at least that of their first run, the third exactly 60.
-    from catenary.diagnosis import runner, refits
+    from catenary.stages.diagnosis import runner, refits
 
     settings, data = _small_tension_case(catenary, n2, 60, ["messenger_tension_variability", "dropper_creep",
                                                             "contact_tension_variability"], n_spans=30, seed=24,
@@ -334,8 +334,8 @@ def tension_start(catenary, n2):
     tried (4 cases, 6–11 iterations)."""
     import dataclasses
 
-    from catenary.diagnosis import refits, runner
-    from catenary.diagnosis.problem import refit
+    from catenary.stages.diagnosis import refits, runner
+    from catenary.stages.diagnosis.problem import refit
 
     settings, data = _small_tension_case(catenary, n2, 4000, ["messenger_tension_variability"], n_spans=60, seed=26)
     settings = dataclasses.replace(settings, n_samples=2000)
@@ -349,7 +349,7 @@ def tension_start(catenary, n2):
 
 
 def test_candidate_refits_reach_the_maximum_of_a_tight_nelder_mead(tension_start):
-    # A candidate's refit: Fisher scoring (catenary.identification.scoring) by default, Nelder–Mead at
+    # A candidate's refit: Fisher scoring (catenary.stages.identification.scoring) by default, Nelder–Mead at
     # xtol 0.1 / ftol 0.01 where the scoring cannot certify (DiagnosisSettings). The test needs
     # Δℓ to about 0.1 (critical values ≈ 10, BIC margin 6): on 60 spans with a planted T_MW
     # spread, the scoring must certify the spread's refit — a full step predicted to gain less
@@ -358,7 +358,7 @@ def test_candidate_refits_reach_the_maximum_of_a_tight_nelder_mead(tension_start
     # (the model fits these data, so the scoring step is nearly Newton's; measured on the default
     # campaign's N2, 117 spans at N = 10⁴: 162 evaluations against Nelder–Mead's 1 221 at the
     # default tolerances and 1 409 at 10⁻³ / 10⁻⁴, the same J within 10⁻³).
-    from catenary.diagnosis.problem import refit
+    from catenary.stages.diagnosis.problem import refit
 
     settings, ctx, start = tension_start
     assert (settings.optimiser, settings.xtol, settings.ftol) == ("fisher-scoring", 0.1, 0.01)
@@ -381,8 +381,8 @@ def test_a_scoring_that_cannot_certify_its_maximum_hands_over_to_nelder_mead(ten
     # within 0.01 (the accuracy the test needs, as above).
     import functools
 
-    from catenary.diagnosis import problem as problem_module
-    from catenary.identification.scoring import fisher_scoring
+    from catenary.stages.diagnosis import problem as problem_module
+    from catenary.stages.identification.scoring import fisher_scoring
 
     settings, ctx, start = tension_start
     joint = ctx.problem(("messenger_tension_variability",))

@@ -15,8 +15,8 @@ RMS of the correction's residual. The whole-pipeline versions run in ``make vali
 import numpy as np
 import pytest
 
-from catenary.diagnosis.model import simulate_spans
-from catenary.diagnosis.runner import diagnose, make_sampler
+from catenary.stages.diagnosis.model import simulate_spans
+from catenary.stages.diagnosis.runner import diagnose, make_sampler
 
 from .test_diagnosis import IDENT, SETTINGS, _laws
 

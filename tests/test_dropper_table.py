@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from catenary.dropper_table import dropper_lengths_for_cw_heights, nominal_dropper_lengths, presag_deflection_m
-from catenary.section import single_span, uniform_section
-from catenary.static import solve_static
+from catenary.physics.dropper_table import dropper_lengths_for_cw_heights, nominal_dropper_lengths, presag_deflection_m
+from catenary.physics.section import single_span, uniform_section
+from catenary.physics.static import solve_static
 
 from .conftest import TABLE2_DROPPER_MEAN_M, TABLE2_DROPPER_SIGMA_M
 

@@ -5,16 +5,16 @@ import dataclasses
 import numpy as np
 import pytest
 
-from catenary.config import SteadyArm
-from catenary.contact_statistics import analysis_stop_m, contact_statistics, lowpass
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.dynamics import (CatenaryDynamics, free_vibration, natural_frequencies_hz, quasi_static_heights,
+from catenary.physics.config import SteadyArm
+from catenary.physics.contact_statistics import analysis_stop_m, contact_statistics, lowpass
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.dynamics import (CatenaryDynamics, free_vibration, natural_frequencies_hz, quasi_static_heights,
                                run_pantograph)
-from catenary.errors import ConfigError
-from catenary.measuring import measuring_pass
-from catenary.pantograph import load_pantographs, pantograph_from_dict
-from catenary.section import single_span, uniform_section
-from catenary.static import StaticModel
+from catenary.physics.measuring import measuring_pass
+from catenary.physics.pantograph import load_pantographs, pantograph_from_dict
+from catenary.physics.section import single_span, uniform_section
+from catenary.physics.static import StaticModel
+from catenary.plumbing.errors import ConfigError
 
 from .conftest import ROOT
 

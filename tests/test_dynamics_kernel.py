@@ -5,7 +5,7 @@ import pytest
 import scipy.sparse as sp
 from scipy.linalg import cholesky_banded, solve
 
-from catenary.dynamics_kernel import _solve_small, band_diagonals, band_rows, band_solve, mass_band, symmetric_band_product
+from catenary.physics.dynamics_kernel import _solve_small, band_diagonals, band_rows, band_solve, mass_band, symmetric_band_product
 
 
 def spd_banded(n: int, kd: int, seed: int) -> sp.csr_matrix:

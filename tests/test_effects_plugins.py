@@ -7,13 +7,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catenary.diagnosis.profile_check import ProfileNoise, ProfileSettings
-from catenary.diagnosis.span_effects import fit_span_effect, span_in_line
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.effects import EFFECTS, load_modules
-from catenary.errors import ConfigError
-from catenary.section import uniform_section
-from catenary.static import StaticModel
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.effects import EFFECTS, load_modules
+from catenary.physics.section import uniform_section
+from catenary.physics.static import StaticModel
+from catenary.plumbing.errors import ConfigError
+from catenary.stages.diagnosis.profile_check import ProfileNoise, ProfileSettings
+from catenary.stages.diagnosis.span_effects import fit_span_effect, span_in_line
 
 from .conftest import ROOT
 
@@ -23,7 +23,7 @@ EXAMPLE = ROOT / "docs" / "examples" / "concentrated_mass.py"
 def test_a_users_module_registers_its_effects(tmp_path):
     path = tmp_path / "mine.py"
     path.write_text(textwrap.dedent("""
-        from catenary.effects import Effect
+        from catenary.physics.effects import Effect
         def heavier_clamps(p, z, *, factor):
             p.dropper_lengths_m = p.dropper_lengths_m * (1.0 + 0.0 * factor)
         EFFECTS = [Effect("test_plugin_heavier_clamps", heavier_clamps, None)]
@@ -41,6 +41,16 @@ def test_a_users_module_registers_its_effects(tmp_path):
         load_modules([empty], where="effects_modules")
     with pytest.raises(ConfigError, match="no such file"):
         load_modules([tmp_path / "missing.py"])
+    # a plug-in written before the package's layers is told where Effect is now; any other
+    # missing module is the user's own error, raised as it is
+    old = tmp_path / "old.py"
+    old.write_text("from catenary.effects import Effect\nEFFECTS = []\n")
+    with pytest.raises(ConfigError, match=r"old.py: imports catenary.effects, .* moved to catenary.physics.effects"):
+        load_modules([old], where="effects_modules")
+    typo = tmp_path / "typo.py"
+    typo.write_text("import numpyy\nEFFECTS = []\n")
+    with pytest.raises(ModuleNotFoundError, match="numpyy"):
+        load_modules([typo])
 
 
 def test_a_concentrated_mass_kinks_the_cw_by_its_weight_over_the_tension(catenary, n2):
@@ -90,7 +100,7 @@ def test_the_worked_example_recovers_a_clamped_mass(catenary, n2):
 
 
 def _design(n2, catenary):
-    from catenary.effects import SpanParameters
+    from catenary.physics.effects import SpanParameters
     nominal = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
     return SpanParameters.independent_spans(
         nominal[None, :], [n2.messenger_tension_n], [n2.system_height_m], [n2.system_height_m],

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from scipy.stats import qmc
 
-from catenary.chebyshev import fit_chebyshev
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.fast import FastSpanModel
-from catenary.section import single_span
-from catenary.static import solve_static
+from catenary.physics.chebyshev import fit_chebyshev
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.fast import FastSpanModel
+from catenary.physics.section import single_span
+from catenary.physics.static import solve_static
 
 from .conftest import (TABLE2_DROPPER_MEAN_M, TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N,
                        TABLE2_SYSTEM_HEIGHT_M)
@@ -93,7 +93,7 @@ def test_span_in_the_line_matches_the_central_span_of_a_section(catenary, n2):
     # drawn, the neighbours at the nominal table and design ΔH, to the same 1e-6 m as the pinned
     # span (measured 8e-10 m), and flag the same slack droppers.
     import dataclasses
-    from catenary.section import uniform_section
+    from catenary.physics.section import uniform_section
 
     x = table2_lhs(60, seed=13)
     nominal = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
@@ -133,7 +133,7 @@ def test_slack_droppers_solved_match_the_fe_active_set(catenary, n2):
     # 0.01 N: the compliance step's error on a changed load path (measured 1.7e-6 m, 0.008 N).
     import dataclasses
 
-    from catenary.section import uniform_section
+    from catenary.physics.section import uniform_section
 
     nominal = nominal_dropper_lengths(n2, catenary).dropper_lengths_m
     model = FastSpanModel(n2, catenary, neighbours=1, degree=14)

@@ -1,4 +1,4 @@
-"""The steady heap (catenary.heap), set where a process starts; and a library that behaves:
+"""The steady heap (catenary.plumbing.heap), set where a process starts; and a library that behaves:
 importing catenary and every one of its modules leaves the caller's allocator and Matplotlib
 as they were."""
 
@@ -9,7 +9,7 @@ import textwrap
 
 import pytest
 
-from catenary.heap import steady_heap
+from catenary.plumbing.heap import steady_heap
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux") or platform.libc_ver()[0] != "glibc",
@@ -38,7 +38,7 @@ def test_importing_every_module_changes_nothing_in_the_process():
         import catenary
         for m in pkgutil.walk_packages(catenary.__path__, "catenary."):
             importlib.import_module(m.name)
-        from catenary.plots import save_figure, subplots
+        from catenary.plumbing.plots import save_figure, subplots
         fig, ax = subplots()
         ax.plot([0, 1], [0, 1])
         import tempfile, pathlib

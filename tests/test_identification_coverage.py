@@ -34,11 +34,11 @@ FIRST_SEED = {"campaign": 5000, "null": 6000}
 def _replicate(kind: str, seed: int) -> dict:
     """Identify one replicate line (kind ``campaign``: the default truth; ``null``: the same
     without any hidden effect, so T_MW has no spread at all)."""
-    from catenary.config import load_catenary
-    from catenary.identification.profile import profile_intervals
-    from catenary.identification.settings import IdentificationSettings
-    from catenary.identification.synthetic import line_deflections
-    from catenary.truth import load_truth
+    from catenary.physics.config import load_catenary
+    from catenary.stages.identification.profile import profile_intervals
+    from catenary.stages.identification.settings import IdentificationSettings
+    from catenary.stages.identification.synthetic import line_deflections
+    from catenary.measurement.truth import load_truth
 
     catenary = load_catenary(ROOT / "config" / "catenary.yaml")
     spec = load_truth(ROOT / "config" / "campaign.yaml", catenary)
@@ -72,7 +72,7 @@ def _run(kind: str) -> list[dict]:
 
 @pytest.mark.slow
 def test_intervals_cover_the_truth_on_section_replicates(catenary):
-    from catenary.truth import load_truth
+    from catenary.measurement.truth import load_truth
 
     spec = load_truth(ROOT / "config" / "campaign.yaml", catenary)
     truth = {f"{name}.{statistic}": value for name, law in population_laws(spec, SPAN_TYPE).items()

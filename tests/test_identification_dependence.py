@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from catenary.identification.dependence import (adjacent_span_pairs, sandwich_covariance, span_scores,
+from catenary.stages.identification.dependence import (adjacent_span_pairs, sandwich_covariance, span_scores,
                                                 variance_inflation, widened_covariance, widening)
 
 

@@ -5,8 +5,8 @@ import openturns as ot
 import pytest
 from scipy import special, stats
 
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.identification.design import (CORNISH_FISHER_MAX_CV, RandomInput, default_inputs,
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.stages.identification.design import (CORNISH_FISHER_MAX_CV, RandomInput, default_inputs,
                                             design_dimension, draw_unit_design, dropper_names,
                                             gamma_quantiles, map_inputs)
 

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from scipy import special, stats
 
-from catenary.identification.design import map_inputs
-from catenary.identification.fit import make_likelihood
-from catenary.identification.likelihood import (fit_gaussian, gaussian_log_density, kernel_log_density)
-from catenary.identification.synthetic import simulate_deflections
+from catenary.stages.identification.design import map_inputs
+from catenary.stages.identification.fit import make_likelihood
+from catenary.stages.identification.likelihood import (fit_gaussian, gaussian_log_density, kernel_log_density)
+from catenary.stages.identification.synthetic import simulate_deflections
 
 
 @pytest.fixture(scope="module")
@@ -189,7 +189,7 @@ def test_only_a_tension_outside_the_model_range_makes_j_infeasible(catenary, n2,
 def test_synthetic_spans_stop_redrawing_when_hardly_any_is_taut(catenary, n2, truth):
     # Dropper laws 10 cm wide make nearly every span slack: the draw must stop with the reason,
     # not loop on (before, it had no cap).
-    from catenary.errors import NoTautSolutionError
+    from catenary.plumbing.errors import NoTautSolutionError
 
     model = make_likelihood(n2, catenary, np.zeros((1, 9)), n_samples=2).model
     means, sigmas = truth

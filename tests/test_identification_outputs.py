@@ -11,23 +11,23 @@ import pyarrow.parquet as pq
 import pytest
 from scipy import stats
 
-from catenary.errors import ConfigError, ConvergenceError, InputError
-from catenary.identification.band import band_abscissae, deflection_band, sample_profiles
-from catenary.identification.design import draw_unit_design
-from catenary.identification.fit import identify, make_likelihood
-from catenary.identification.likelihood import Likelihood, fit_gaussian, kernel_bandwidth
-from catenary.identification.outputs import IdentificationPaths, write_identification
-from catenary.identification.data import read_corrected
-from catenary.identification.report import markdown_report
-from catenary.identification.runner import marginal_densities, normality_report, run_identification
-from catenary.identification.tables import S_OPT_COLUMNS
-from catenary.identification.settings import DETERMINISTIC_CV, IdentificationSettings
-from catenary.identification.synthetic import simulate_deflections
-from catenary.normality import henze_zirkler
-from catenary.parquet import read_metadata, write_table
-from catenary.fast import FastSpanModel
-from catenary.section import uniform_section
-from catenary.static import StaticModel
+from catenary.physics.fast import FastSpanModel
+from catenary.physics.section import uniform_section
+from catenary.physics.static import StaticModel
+from catenary.plumbing.errors import ConfigError, ConvergenceError, InputError
+from catenary.plumbing.parquet import read_metadata, write_table
+from catenary.stages.identification.band import band_abscissae, deflection_band, sample_profiles
+from catenary.stages.identification.data import read_corrected
+from catenary.stages.identification.design import draw_unit_design
+from catenary.stages.identification.fit import identify, make_likelihood
+from catenary.stages.identification.likelihood import Likelihood, fit_gaussian, kernel_bandwidth
+from catenary.stages.identification.normality import henze_zirkler
+from catenary.stages.identification.outputs import IdentificationPaths, write_identification
+from catenary.stages.identification.report import markdown_report
+from catenary.stages.identification.runner import marginal_densities, normality_report, run_identification
+from catenary.stages.identification.settings import DETERMINISTIC_CV, IdentificationSettings
+from catenary.stages.identification.synthetic import simulate_deflections
+from catenary.stages.identification.tables import S_OPT_COLUMNS
 
 MODE = "independent"
 
@@ -227,7 +227,8 @@ def test_report_names_the_run_figures(written):
     for needle in (f"{r.n_evaluations} by the optimiser", f"{r.n_hessian_evaluations} for the standard errors",
                    f"J(s0) | {run.j_start:.3f}", f"J(s_opt) | {r.j_opt:.3f}", "observed information",
                    "nelder-mead", "N = 1000", "seed 5", "left out M9-M10: test", "](band.png)",
-                   "](estimators.png)", "| T_MW |", "| ΔH |", "## 95 % intervals", "| T_MW | σ |",
+                   "](estimators.png)", "| messenger tension T_MW |", "| system height ΔH |", "## 95 % intervals",
+                   "| messenger tension T_MW | σ |", "| dropper 1 length |",
                    "Span model: the span as it hangs in the line"):
         assert needle in text, needle
     assert paths.band.stat().st_size > 0 and paths.estimators.stat().st_size > 0
@@ -282,7 +283,7 @@ def test_read_corrected_says_which_used_spans_share_a_mast(tmp_path, n2):
 def test_report_says_how_spans_sharing_masts_widened_the_intervals(written, tmp_path):
     import dataclasses
 
-    from catenary.identification.profile import ProfileInterval
+    from catenary.stages.identification.profile import ProfileInterval
 
     run, _, _ = written
     assert "treated as independent" in markdown_report(run)     # no adjacency given to that run
@@ -367,8 +368,8 @@ def test_too_few_spans_are_refused_and_few_spans_warned_about(catenary, n2, data
     # 13 identified parameters (defaults: 11 σ, T_MW and ΔH means): 12 spans are refused before
     # any sampling, naming the counts and the settings to change; 13–38 spans (< 3 per
     # parameter) pass with a warning.
-    from catenary.errors import InputError
-    from catenary.identification.runner import check_span_count
+    from catenary.plumbing.errors import InputError
+    from catenary.stages.identification.runner import check_span_count
 
     settings = IdentificationSettings.from_mapping(SMALL)
     with pytest.raises(InputError, match=r"span type N2: 12 measured span\(s\) for 13 identified parameters; "
@@ -386,3 +387,12 @@ def test_too_few_spans_are_refused_and_few_spans_warned_about(catenary, n2, data
     with pytest.raises(InputError, match=r"2 measured span\(s\) \(13 more left out because their correction "
                                          r"did not converge"):
         check_span_count("N2", 2, 13, log, n_left_out=13)
+
+
+def test_the_spans_left_out_of_the_explained_laws_are_those_the_diagnosis_flags():
+    # unexplained, or explained only by an effect of the user's own: both left out; the rest kept
+    from catenary.stages.identification.explained import unexplained_spans
+
+    spans = pd.DataFrame({"span_id": ["A", "B", "C", "D"], "unexplained": [True, False, False, "True"],
+                          "explained_by": ["", "clamp_mass", "", None]})
+    assert unexplained_spans(spans) == {"A", "B", "D"}

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from catenary.identification.design import default_inputs
-from catenary.identification.fit import identify, make_likelihood
-from catenary.identification.profile import profile_intervals
-from catenary.identification.synthetic import simulate_deflections
+from catenary.stages.identification.design import default_inputs
+from catenary.stages.identification.fit import identify, make_likelihood
+from catenary.stages.identification.profile import profile_intervals
+from catenary.stages.identification.synthetic import simulate_deflections
 
 from .conftest import TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N, TABLE2_SYSTEM_HEIGHT_M
 

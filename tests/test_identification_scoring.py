@@ -1,4 +1,4 @@
-"""Fisher scoring (catenary.identification.scoring) on a Gaussian likelihood whose maximum is
+"""Fisher scoring (catenary.stages.identification.scoring) on a Gaussian likelihood whose maximum is
 known in closed form."""
 
 from types import SimpleNamespace
@@ -6,8 +6,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from catenary.identification.likelihood import GaussianFit, LikelihoodValue
-from catenary.identification.scoring import MAX_MOVE, STEP, fisher_scoring
+from catenary.stages.identification.likelihood import GaussianFit, LikelihoodValue
+from catenary.stages.identification.scoring import MAX_MOVE, STEP, fisher_scoring
 
 
 class MeanShift:

@@ -6,13 +6,13 @@ import dataclasses
 import numpy as np
 import pytest
 
-from catenary.config import SteadyArm
-from catenary.dropper_table import dropper_lengths_for_cw_heights, nominal_dropper_lengths
-from catenary.dynamics import CatenaryDynamics, quasi_static_heights
-from catenary.errors import ConfigError
-from catenary.fast import FastSpanModel
-from catenary.section import single_span, uniform_section
-from catenary.static import StaticModel
+from catenary.physics.config import SteadyArm
+from catenary.physics.dropper_table import dropper_lengths_for_cw_heights, nominal_dropper_lengths
+from catenary.physics.dynamics import CatenaryDynamics, quasi_static_heights
+from catenary.physics.fast import FastSpanModel
+from catenary.physics.section import single_span, uniform_section
+from catenary.physics.static import StaticModel
+from catenary.plumbing.errors import ConfigError
 
 OFFSET_M = 0.15
 

@@ -4,15 +4,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from catenary.dropper_table import nominal_dropper_lengths, presag_deflection_m
-from catenary.errors import InputError
-from catenary.fast import FastSpanModel
-from catenary.inversion import (converged_spans, dropper_statistics, invert_span, invert_spans, min_correlation,
+from catenary.physics.dropper_table import nominal_dropper_lengths, presag_deflection_m
+from catenary.physics.fast import FastSpanModel
+from catenary.plumbing.errors import InputError
+from catenary.stages.inversion import (converged_spans, dropper_statistics, invert_span, invert_spans, min_correlation,
                                 pearson_matrix, w_columns)
-from catenary.pantograph import load_pantographs
-from catenary.section import single_span
-from catenary.static import solve_static
-from catenary.tension_impact import tension_impact
+from catenary.physics.pantograph import load_pantographs
+from catenary.physics.section import single_span
+from catenary.physics.static import solve_static
+from catenary.stages.tension_impact import tension_impact
 
 from .conftest import ROOT, TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N, TABLE2_SYSTEM_HEIGHT_M
 
@@ -182,8 +182,8 @@ def test_same_static_sag_at_16_and_20_kn_measures_within_2_mm(catenary, n2):
 def test_a_config_error_inside_the_inversion_is_not_a_left_out_span(catenary, n2, monkeypatch):
     # Only "no taut dropper lengths produce this W" leaves a span out (above); an error of the
     # configuration or the code must surface, not be reported as the physics of one span.
-    import catenary.inversion as inversion
-    from catenary.errors import ConfigError
+    import catenary.stages.inversion as inversion
+    from catenary.plumbing.errors import ConfigError
 
     def misconfigured(*args, **kwargs):
         raise ConfigError("catenary.droppers.axial_stiffness_n: expected a value > 0, got 0")

@@ -1,4 +1,4 @@
-"""Per-span posteriors (catenary.maintenance): the importance sampler against an analytic
+"""Per-span posteriors (catenary.stages.maintenance): the importance sampler against an analytic
 posterior and a Metropolis reference, its calibration on spans drawn from the prior, the list."""
 
 import dataclasses
@@ -10,13 +10,13 @@ import pandas as pd
 import pytest
 from scipy import optimize, stats
 
-from catenary.errors import ConfigError
-from catenary.fast import FastSpanModel
-from catenary.identification.design import default_inputs
-from catenary.maintenance.posterior import posterior_modes, span_posteriors, weighted_quantiles
-from catenary.maintenance.prior import SpanPrior, messenger_tension_range_n, output_names
-from catenary.maintenance.runner import maintenance_list
-from catenary.maintenance.settings import MaintenanceSettings, tolerance_limits
+from catenary.physics.fast import FastSpanModel
+from catenary.plumbing.errors import ConfigError
+from catenary.stages.identification.design import default_inputs
+from catenary.stages.maintenance.posterior import posterior_modes, span_posteriors, weighted_quantiles
+from catenary.stages.maintenance.prior import SpanPrior, messenger_tension_range_n, output_names
+from catenary.stages.maintenance.runner import maintenance_list
+from catenary.stages.maintenance.settings import MaintenanceSettings, tolerance_limits
 
 from .conftest import TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N, TABLE2_SYSTEM_HEIGHT_M
 
@@ -264,8 +264,8 @@ def test_a_slack_dropper_is_found_unloaded(table2_prior):
     # dropper carries next to nothing: P(force < 10 N) > 0.75 (measured 0.81: 0.5 mm of W noise
     # is ≈ 4 N of dropper force through the CW's stiffness, and the mode carries 4 N), and
     # < 0.1 for the others.
-    from catenary.section import uniform_section
-    from catenary.static import solve_static
+    from catenary.physics.section import uniform_section
+    from catenary.physics.static import solve_static
 
     prior = dataclasses.replace(table2_prior, fault_probability=0.01, fault_std_m=0.03)
     means = prior.means
@@ -364,7 +364,7 @@ def test_dropper_faults_plant_the_declared_fraction_sizes_and_signs():
     # 2000 spans × 9 droppers, 5 % faulty: the count is binomial (sd 0.16 % of the droppers: the
     # band ±0.7 % is 4.3 sd), every fault 2–4 cm, as many longer as shorter (±4.3 sd of a fair
     # coin over ≈ 900), sizes uniform (mean 3 cm within 4.3 × 0.58 cm / √900).
-    from catenary.effects import SpanParameters, plant
+    from catenary.physics.effects import SpanParameters, plant
 
     n = 2000
     base = np.tile(np.linspace(0.9, 1.3, 9), (n, 1))
@@ -396,7 +396,7 @@ def _section_posterior(n_spans, nominal, listed_spans):
 def test_repair_windows_put_every_listed_span_in_an_analysed_part():
     # 20 spans, windows of 10 analysed between masts 3 and 7 (spans 3–6 of a window): spans 5, 6
     # share one window, 12 gets its own; spans 0 and 19 are run-in/run-out of every window.
-    from catenary.maintenance.repair import repair_windows
+    from catenary.stages.maintenance.repair import repair_windows
 
     post = _section_posterior(20, np.ones(12), [])
     listed = pd.DataFrame({"span_id": ["S00", "S05", "S06", "S12", "S19"],
@@ -414,19 +414,19 @@ def test_repaired_geometry_runs_as_the_nominal_section(catenary, n2):
     # its own path (design laws, no spread): equal to 1e-9; as measured, σ_F differs.
     import yaml
 
-    from catenary.contact_force.draws import build_section, draw_inputs
-    from catenary.contact_force.laws import design_laws
-    from catenary.contact_force.runs import run_section
-    from catenary.contact_force.settings import ContactForceSettings
-    from catenary.maintenance.repair import fixing_buys
-    from catenary.pantograph import load_pantographs
+    from catenary.stages.contact_force.draws import build_section, draw_inputs
+    from catenary.stages.contact_force.laws import design_laws
+    from catenary.stages.contact_force.runs import run_section
+    from catenary.stages.contact_force.settings import ContactForceSettings
+    from catenary.stages.maintenance.repair import fixing_buys
+    from catenary.physics.pantograph import load_pantographs
 
     from .conftest import ROOT
 
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     settings = ContactForceSettings.from_mapping({**config["contact_force"], "speeds_kmh": [300]})
     pantograph = load_pantographs(ROOT / config["pantographs"])[settings.pantograph]
-    from catenary.dropper_table import nominal_dropper_lengths
+    from catenary.physics.dropper_table import nominal_dropper_lengths
 
     nominal = np.r_[nominal_dropper_lengths(n2, catenary).dropper_lengths_m, n2.messenger_tension_n,
                     n2.system_height_m, n2.system_height_m]

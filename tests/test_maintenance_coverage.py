@@ -31,7 +31,7 @@ NOISE_M = 6e-4
 def _true_s_opt(spec, catenary, span_type) -> pd.DataFrame:
     """The campaign's laws as an s_opt table: dropper means at the nominal table, T_MW σ the
     section's and the spans' variability in quadrature."""
-    from catenary.dropper_table import nominal_dropper_lengths
+    from catenary.physics.dropper_table import nominal_dropper_lengths
 
     st = catenary.span_type(span_type)
     lengths = nominal_dropper_lengths(st, catenary).dropper_lengths_m
@@ -52,12 +52,12 @@ def _coverage(post, truth: pd.DataFrame) -> dict:
 
 
 def _replicate(seed: int) -> dict:
-    from catenary.config import load_catenary
-    from catenary.identification.settings import IdentificationSettings
-    from catenary.identification.synthetic import line_deflections
-    from catenary.maintenance.posterior import span_posteriors
-    from catenary.maintenance.runner import prior_from_s_opt
-    from catenary.truth import load_truth
+    from catenary.physics.config import load_catenary
+    from catenary.stages.identification.settings import IdentificationSettings
+    from catenary.stages.identification.synthetic import line_deflections
+    from catenary.stages.maintenance.posterior import span_posteriors
+    from catenary.stages.maintenance.runner import prior_from_s_opt
+    from catenary.measurement.truth import load_truth
 
     catenary = load_catenary(ROOT / "config" / "catenary.yaml")
     spec = load_truth(ROOT / "config" / "campaign.yaml", catenary)

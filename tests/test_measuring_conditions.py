@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.dynamics import CatenaryDynamics, contact_path, run_pantograph
-from catenary.measuring import measuring_pass
-from catenary.pantograph import load_pantographs
-from catenary.section import Section, uniform_section
-from catenary.static import StaticModel
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.dynamics import CatenaryDynamics, contact_path, run_pantograph
+from catenary.physics.measuring import measuring_pass
+from catenary.physics.pantograph import load_pantographs
+from catenary.physics.section import Section, uniform_section
+from catenary.physics.static import StaticModel
 
 from .conftest import ROOT
 

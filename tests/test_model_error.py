@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from catenary.correction import CorrectionSettings, correct_spans
-from catenary.errors import ConfigError
-from catenary.measuring import measuring_pass
-from catenary.model_error.correction import run_shifts, w_shifts
-from catenary.model_error.propagation import Z95
-from catenary.model_error.sources import ModelErrorSettings, Source
+from catenary.physics.measuring import measuring_pass
+from catenary.plumbing.errors import ConfigError
+from catenary.stages.correction import CorrectionSettings, correct_spans
+from catenary.stages.identification.propagation import Z95
+from catenary.stages.model_error.correction import run_shifts, w_shifts
+from catenary.stages.model_error.sources import ModelErrorSettings, Source
 
 from .test_correction import measured_run, measuring, true_line  # noqa: F401  (measuring: a fixture)
 
@@ -113,7 +113,7 @@ def test_w_budget_combines_the_sources_and_measures_assumption_one():
     # not be measured is counted apart and left out of the means.
     import pandas as pd
 
-    from catenary.model_error.budget import w_budget
+    from catenary.stages.model_error.budget import w_budget
 
     def table(**columns):
         return pd.DataFrame({"span_type": "N2", "run_id": "R1", **columns})
@@ -133,7 +133,7 @@ def test_w_budget_combines_the_sources_and_measures_assumption_one():
 
 
 def test_a_pantograph_entry_it_does_not_have_is_refused(catenary, measuring):
-    from catenary.model_error.sources import perturbed
+    from catenary.stages.model_error.sources import perturbed
 
     with pytest.raises(ConfigError, match="has 3 masses_kg"):
         perturbed(Source("fourth_mass", "pantograph.masses_kg.3", relative_std=0.1), 1.0, measuring, catenary, 11.1)
@@ -151,10 +151,10 @@ def test_parameter_shifts_match_a_full_reidentification(catenary, n2):
     # shift (the linearisation; measured ≤ 1 % on T_MW's mean) plus 5 % of the parameter's standard
     # error (the optimiser's own resolution: Nelder–Mead stops at ΔJ ≈ 1e-4, i.e. ≈ √(2e-4) ≈ 0.014
     # standard errors from the maximum; measured differences ≤ 0.01 se at this shift, 0.03 se at twice it).
-    from catenary.identification.design import default_inputs
-    from catenary.identification.fit import ScaledProblem, identify, make_likelihood
-    from catenary.identification.synthetic import simulate_deflections
-    from catenary.model_error.propagation import budget_table, parameter_shifts
+    from catenary.stages.identification.design import default_inputs
+    from catenary.stages.identification.fit import ScaledProblem, identify, make_likelihood
+    from catenary.stages.identification.synthetic import simulate_deflections
+    from catenary.stages.identification.propagation import budget_table, parameter_shifts
 
     from .conftest import TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N, TABLE2_SYSTEM_HEIGHT_M
 
@@ -197,7 +197,7 @@ def test_total_intervals_widen_the_profile_interval_in_quadrature():
     # no profile, widens ±1.96 se; no budget → NaN (a statistical interval is not a total one).
     import pandas as pd
 
-    from catenary.model_error.propagation import total_intervals
+    from catenary.stages.identification.propagation import total_intervals
 
     s_opt = pd.DataFrame({"parameter": ["t"], "mu": [100.0], "sigma": [5.0], "mu_se": [8.0], "sigma_se": [1.0],
                           "mu_fixed": [False], "mu_profile_low": [90.0], "mu_profile_high": [120.0],
@@ -217,7 +217,7 @@ def test_span_shifts_average_the_runs_and_fill_a_span_without_its_own():
     # B takes A's mean, counted; a run the correction did not converge is not averaged.
     import pandas as pd
 
-    from catenary.model_error.propagation import span_shifts
+    from catenary.stages.identification.propagation import span_shifts
 
     cols = {f"w{i}_m": [1.0, 3.0, 50.0, np.nan] for i in (1, 2)}
     shifts = pd.DataFrame({"span_type": "N2", "span_id": ["A", "A", "A", "B"], "run_id": ["r1", "r2", "r3", "r1"],
@@ -243,13 +243,13 @@ def test_total_interval_covers_a_planted_force_the_statistical_one_misses(catena
     # uncertainty of 2 N (the plant is 2 of them, the edge of a 95 % interval) widens the interval
     # to cover it. ΔH's mean likewise. The reference is the same identification on the true W, so
     # that the sampling error of the 300 spans does not enter.
-    from catenary.identification.design import default_inputs
-    from catenary.identification.fit import make_likelihood
-    from catenary.identification.runner import run_identification
-    from catenary.identification.tables import s_opt_table
-    from catenary.identification.settings import IdentificationSettings
-    from catenary.identification.synthetic import simulate_deflections
-    from catenary.model_error.propagation import SpanShifts
+    from catenary.stages.identification.design import default_inputs
+    from catenary.stages.identification.fit import make_likelihood
+    from catenary.stages.identification.runner import run_identification
+    from catenary.stages.identification.tables import s_opt_table
+    from catenary.stages.identification.settings import IdentificationSettings
+    from catenary.stages.identification.synthetic import simulate_deflections
+    from catenary.stages.identification.propagation import SpanShifts
 
     from .conftest import TABLE2_DROPPER_SIGMA_M, TABLE2_MESSENGER_TENSION_N, TABLE2_SYSTEM_HEIGHT_M
 
@@ -279,3 +279,26 @@ def test_total_interval_covers_a_planted_force_the_statistical_one_misses(catena
         stat = (row.mu - Z95 * row.mu_se, row.mu + Z95 * row.mu_se)
         assert not stat[0] <= truth <= stat[1], (name, stat, truth)
         assert row.mu_total_low <= truth <= row.mu_total_high, (name, row.mu_total_low, row.mu_total_high, truth)
+
+
+def test_the_force_bound_is_two_standard_uncertainties_of_the_force_source():
+    # absolute: 2 × 1 N; relative: 2 × 5 % of 36 N = 3.6 N; no force source or no budget: none
+    from catenary.stages.model_error.sources import ModelErrorSettings, Source
+
+    absolute = ModelErrorSettings(True, (Source("measuring_force", "force_n", std=1.0),))
+    relative = ModelErrorSettings(True, (Source("speed", "speed_kmh", relative_std=0.02),
+                                         Source("measuring_force", "force_n", relative_std=0.05)))
+    assert absolute.force_bound_n(36.0) == 2.0 and relative.force_bound_n(36.0) == pytest.approx(3.6)
+    assert ModelErrorSettings(True, (Source("speed", "speed_kmh", relative_std=0.02),)).force_bound_n(36.0) is None
+    assert ModelErrorSettings(False, absolute.sources).force_bound_n(36.0) is None
+
+
+def test_the_sources_covariance_of_one_spans_w_is_their_mean_outer_product():
+    # two sources, two spans, two droppers: Σ_s (1/K) Σ_k b_k b_kᵀ, computed by hand
+    from catenary.stages.identification.propagation import SpanShifts
+
+    a = np.array([[1.0, 0.0], [3.0, 1.0]])
+    b = np.array([[0.0, 2.0], [0.0, 2.0]])
+    expected = (np.outer(a[0], a[0]) + np.outer(a[1], a[1])) / 2 + (np.outer(b[0], b[0]) + np.outer(b[1], b[1])) / 2
+    assert np.allclose(SpanShifts({"f": a, "g": b}, {}, {}).covariance_m2(), expected)
+    assert SpanShifts({}, {}, {}).covariance_m2() is None

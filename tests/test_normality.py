@@ -1,11 +1,11 @@
-"""Tests of :mod:`catenary.normality` (Henze–Zirkler multivariate normality test)."""
+"""Tests of :mod:`catenary.stages.identification.normality` (Henze–Zirkler multivariate normality test)."""
 
 import numpy as np
 import pytest
 from scipy.stats import binom
 
-from catenary import normality
-from catenary.normality import HenzeZirklerResult, henze_zirkler
+from catenary.stages.identification import normality
+from catenary.stages.identification.normality import HenzeZirklerResult, henze_zirkler
 
 
 def _reference_samples():

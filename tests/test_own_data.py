@@ -58,6 +58,8 @@ def test_shipped_example_runs_the_measurement_pipeline_for_its_span_type(tmp_pat
     assert not (results / "N2" / "contact_force").exists()          # the study is not part of own-data
     html_report = (results / "report.html").read_text()             # make own-data's report: N2's results
     assert f"{results}/N2/identification/band.png" in html_report
-    assert f"{results}/N2/diagnosis/findings.csv" in html_report
-    front = (results / "report" / "front_page.rst").read_text()          # the report's opening panel
+    assert f"{results}/report/tables/N2/diagnosis/findings.csv" in html_report   # in an engineer's units
+    # the report's opening panel: own-data's, without the contact-force study it does not run
+    front = (results / "report" / "front_page_measurements.rst").read_text()
     assert "\nN2\n~~" in front and "\nN3\n~~" not in front and "15 used, 1 rejected" in front
+    assert "**Maintenance:**" in front and "Contact force (EN 50367):** not part of this run" in front

@@ -100,7 +100,7 @@ def test_measurements_besides_the_height_enter_the_diagnosis(span_type):
     # says how many per quantity), names the T_MW spread alone (above), asks nothing they already
     # answer — no option measuring what was measured, no question about the car, whose force the
     # calibration and the contact-force channel measure to 0.5 N (a 2 N error: λ = 16, power ≥ 0.8)
-    from catenary.diagnosis.recommend import RECOMMENDATION_COLUMNS
+    from catenary.stages.diagnosis.recommend import RECOMMENDATION_COLUMNS
 
     log = (ROOT / "results" / "ci" / "logs" / "diagnose" / f"{span_type}.log").read_text()
     line = next(x for x in log.splitlines() if "measured besides W" in x)
@@ -117,7 +117,7 @@ def test_diagnosis_files_say_what_was_found(span_type):
     # step agreeing with candidates.csv, the plain-words summary naming the effect, the figures.
     import json
 
-    from catenary.diagnosis.outputs import CANDIDATE_COLUMNS, FINDING_COLUMNS, DiagnosisPaths
+    from catenary.stages.diagnosis.outputs import CANDIDATE_COLUMNS, FINDING_COLUMNS, DiagnosisPaths
 
     paths = DiagnosisPaths.in_folder(ROOT / "results" / "ci" / span_type / "diagnosis")
     findings = pd.read_csv(paths.findings)

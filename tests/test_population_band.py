@@ -1,15 +1,15 @@
-"""The population's posterior band (catenary.maintenance.population): leave-one-out coverage
+"""The population's posterior band (catenary.stages.maintenance.population): leave-one-out coverage
 against known distributions, and the band against the prior band when the prior is right and
 when it is too wide (the paper's case for a tighter region than its Fig. 10)."""
 
 import dataclasses
 
 import numpy as np
-from catenary.fast import FastSpanModel
-from catenary.identification.band import band_abscissae
-from catenary.maintenance.population import leave_one_out_inside, population_bands
-from catenary.maintenance.posterior import span_posteriors
-from catenary.maintenance.prior import messenger_tension_range_n
+from catenary.physics.fast import FastSpanModel
+from catenary.stages.identification.band import band_abscissae
+from catenary.stages.maintenance.population import leave_one_out_inside, population_bands
+from catenary.stages.maintenance.posterior import span_posteriors
+from catenary.stages.maintenance.prior import messenger_tension_range_n
 
 from .test_maintenance import NOISE_M, _spans_from_prior, table2_prior  # noqa: F401  (fixture)
 

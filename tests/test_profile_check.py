@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from catenary.diagnosis.profile_check import (ProfileSettings, base_columns, hunter_max_normal_sf, knots_of,
+from catenary.stages.diagnosis.profile_check import (ProfileSettings, base_columns, hunter_max_normal_sf, knots_of,
                                               profile_tests, tent_columns)
 
 LENGTH_M = 58.5

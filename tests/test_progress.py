@@ -1,10 +1,10 @@
-"""catenary.progress: what a long step writes to its rule log."""
+"""catenary.plumbing.progress: what a long step writes to its rule log."""
 
 import logging
 
 import pytest
 
-from catenary.progress import Progress
+from catenary.plumbing.progress import Progress
 
 
 def test_progress_lines_carry_the_count_elapsed_time_and_an_estimate(caplog):

@@ -10,11 +10,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from catenary.errors import ConfigError, InputError
-from catenary.parquet import read_metadata, read_table
-from catenary.projection import (ProjectionResult, ProjectionSettings, check_reconciliation, project,
+from catenary.plumbing.errors import ConfigError, InputError
+from catenary.plumbing.parquet import read_metadata, read_table
+from catenary.measurement.projection import (ProjectionResult, ProjectionSettings, check_reconciliation, project,
                                  robust_local_fit, spans_columns, write_projection)
-from catenary.recording import read_masts, read_recording, validate_masts
+from catenary.measurement.recording import read_masts, read_recording, validate_masts
 
 LAYOUT = (("S1", ("N2", "N2", "N3", "N2")), ("S2", ("N3", "N3", "N2")))
 

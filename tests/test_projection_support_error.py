@@ -5,9 +5,9 @@ uncertainty of W that the masts' registered positions cause (``w_support_std_m``
 import numpy as np
 import pytest
 
-from catenary.projection import ProjectionSettings, project
-from catenary.recording import run_samples, validate_recording
-from catenary.registration import unregistered_run
+from catenary.measurement.projection import ProjectionSettings, project
+from catenary.measurement.recording import run_samples, validate_recording
+from catenary.measurement.registration import unregistered_run
 
 from .test_projection import synthetic_line
 

@@ -9,9 +9,9 @@ import pyarrow.parquet as pq
 import pytest
 
 import catenary
-from catenary.errors import InputError
-from catenary.parquet import config_hash, read_metadata, read_table, settings_hash, unit_of, write_table
-from catenary.recording import (MASTS_SCHEMA, RECORDING_SCHEMA, read_masts, read_recording, read_recordings,
+from catenary.plumbing.errors import InputError
+from catenary.plumbing.parquet import config_hash, read_metadata, read_table, settings_hash, unit_of, write_table
+from catenary.measurement.recording import (MASTS_SCHEMA, RECORDING_SCHEMA, read_masts, read_recording, read_recordings,
                                 run_samples, runs_table, validate_masts, validate_recording, write_masts,
                                 write_recording)
 
@@ -399,7 +399,7 @@ def test_a_rule_script_error_is_one_line_in_its_log_and_no_traceback(tmp_path):
     import sys
 
     log = tmp_path / "rule.log"
-    script = (f"from catenary.logs import rule_logger\nfrom catenary.recording import read_recording\n"
+    script = (f"from catenary.plumbing.logs import rule_logger\nfrom catenary.measurement.recording import read_recording\n"
               f"rule_logger('ingest', {str(log)!r})\nread_recording({str(tmp_path / 'absent.csv')!r})\n")
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert run.returncode == 1
@@ -407,6 +407,6 @@ def test_a_rule_script_error_is_one_line_in_its_log_and_no_traceback(tmp_path):
     lines = log.read_text().strip().splitlines()
     assert len(lines) == 1 and "InputError" in lines[0] and "absent.csv: file not found" in lines[0]
     # A bug (not a CatenaryError) keeps its traceback, in the log too.
-    bug = subprocess.run([sys.executable, "-c", f"from catenary.logs import rule_logger\n"
+    bug = subprocess.run([sys.executable, "-c", f"from catenary.plumbing.logs import rule_logger\n"
                           f"rule_logger('x', {str(log)!r})\n1 / 0\n"], capture_output=True, text=True)
     assert bug.returncode == 1 and "Traceback" in log.read_text() and "a bug" in log.read_text()

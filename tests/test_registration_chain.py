@@ -1,11 +1,11 @@
-"""The chain of spans found in a height trace without a table (catenary.registration.chain), on
+"""The chain of spans found in a height trace without a table (catenary.measurement.registration.chain), on
 kink signals built by hand: droppers' kinks where a known line puts them, the sag's peak at its
 supports, noise."""
 
 import numpy as np
 import pytest
 
-from catenary.registration.chain import chain_supports, odometer_scale
+from catenary.measurement.registration.chain import chain_supports, odometer_scale
 
 STEP_M = 0.05
 LAG_M = 0.3
@@ -59,7 +59,7 @@ def test_a_change_of_span_type_the_trace_insists_on_is_kept(catenary):
 
 def test_odometer_scale_is_the_slope_of_the_supports_against_the_design():
     # exact on supports at a constant scale, each chain with its own origin
-    from catenary.config import load_catenary
+    from catenary.physics.config import load_catenary
     from .conftest import ROOT
 
     catenary = load_catenary(ROOT / "config" / "catenary.yaml")

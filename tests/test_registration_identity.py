@@ -1,12 +1,12 @@
 """When a trace's supports say the recording's chainage is already right: the identity test of
-:func:`catenary.registration.runner._agrees_with_identity`, on supports built to the figures
+:func:`catenary.measurement.registration.runner._agrees_with_identity`, on supports built to the figures
 measured on the default campaign's height trace (exact odometer and mast table)."""
 
 import numpy as np
 import pytest
 
-from catenary.registration.runner import _agrees_with_identity
-from catenary.registration.settings import RegistrationSettings
+from catenary.measurement.registration.runner import _agrees_with_identity
+from catenary.measurement.registration.settings import RegistrationSettings
 
 #: A section as the default campaign's S08: 21 masts 54 m apart, 18 placed by the height.
 TABLE_M = 8274.5 + 54.0 * np.arange(21)

@@ -14,12 +14,12 @@ import pandas as pd
 import pytest
 import yaml
 
-from catenary.config import load_catenary
-from catenary.correction import CorrectionSettings
-from catenary.pantograph import load_pantographs
-from catenary.recording import run_samples, validate_masts
-from catenary.registration import RegistrationSettings, masts_from_trace, register_run
-from catenary.registration.lag import measuring_lag
+from catenary.measurement.recording import run_samples, validate_masts
+from catenary.measurement.registration import RegistrationSettings, masts_from_trace, register_run
+from catenary.physics.config import load_catenary
+from catenary.physics.pantograph import load_pantographs
+from catenary.stages.correction import CorrectionSettings
+from catenary.stages.correction import measuring_lag
 
 from .conftest import ROOT, workflow_dir
 
@@ -116,7 +116,7 @@ def test_the_height_alone_registers_a_drifting_odometer_and_a_wrong_table(tmp_pa
     catenary, settings, lag, samples, truth = _registration_inputs(tmp_path / "results")
     _register_against_random_tables(catenary, settings, lag, samples, truth, n_tables=8, half_width_m=0.3)
     _register_against_random_tables(catenary, settings, lag, samples, truth, n_tables=4, half_width_m=1.0)
-    # No table at all: each stretch's chain of spans found at once (catenary.registration.chain)
+    # No table at all: each stretch's chain of spans found at once (catenary.measurement.registration.chain)
     # finds every one of the 42 masts and the type of every span, each mast within a metre of
     # the truth (0.50 / 0.73 m measured; the registration then places them: 0.25 m RMS through
     # the rules). Followed span by span, the height found 3.

@@ -1,4 +1,4 @@
-"""A section's supports found jointly from the height (catenary.registration.section_fit), on a
+"""A section's supports found jointly from the height (catenary.measurement.registration.section_fit), on a
 synthetic height-only trace: a contact wire hung straight between its supports (masts and
 droppers, the droppers' heights drawn about the design presag) less its own sag, recorded every
 0.1 m with 1 mm of noise and 1 mm quantisation by an odometer 0.3 % long and 7 m ahead; and the
@@ -7,9 +7,9 @@ table's accuracy measured from residuals."""
 import numpy as np
 import pytest
 
-from catenary.registration.mapping import ChainageMap
-from catenary.registration.section_fit import (fit_section, height_evidence, table_std_from_residuals)
-from catenary.registration.supports import trace_of
+from catenary.measurement.registration.mapping import ChainageMap
+from catenary.measurement.registration.section_fit import (fit_section, height_evidence, table_std_from_residuals)
+from catenary.measurement.registration.supports import trace_of
 
 SCALE, OFFSET_M = 1.003, 7.0
 

@@ -1,19 +1,19 @@
 """Where the height trace puts a mast, and how well it says it does: the fit of a mast's dropper
-pattern (:func:`catenary.registration.supports.align_pattern`) over the window the registration
-gives it (:func:`catenary.registration.runner._pattern`), on the correction's own model of a
+pattern (:func:`catenary.measurement.registration.supports.align_pattern`) over the window the registration
+gives it (:func:`catenary.measurement.registration.runner._pattern`), on the correction's own model of a
 measuring pass over a nominal section, with the sensor of the validation campaigns (1 mm of noise,
 1 mm quantisation, a sample every 0.1 m)."""
 
 import numpy as np
 import pytest
 
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.measuring import measuring_pass
-from catenary.pantograph import load_pantographs
-from catenary.registration.lag import height_lag_m
-from catenary.registration.runner import _pattern
-from catenary.registration.supports import Trace, align_pattern
-from catenary.section import uniform_section
+from catenary.measurement.registration.lag import height_lag_m
+from catenary.measurement.registration.runner import _pattern
+from catenary.measurement.registration.supports import Trace, align_pattern
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.measuring import measuring_pass
+from catenary.physics.pantograph import load_pantographs
+from catenary.physics.section import uniform_section
 
 from .conftest import ROOT
 

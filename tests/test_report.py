@@ -59,7 +59,9 @@ def report():
 def test_every_figure_and_table_is_in_the_report_with_a_caption(report):
     _, results, categories = report
     figures = sorted(str(p.relative_to(ROOT)) for p in RESULTS.rglob("*.png") if "benchmarks" not in p.parts)
-    tables = [f"results/ci/{t}/{name}" for t in SPAN_TYPES for name in TABLES] + [f"results/ci/{n}" for n in LINE_TABLES]
+    # every table as its copy in an engineer's units (the file itself keeps SI: catenary.report.tables)
+    tables = ([f"results/ci/report/tables/{t}/{name}" for t in SPAN_TYPES for name in TABLES]
+              + [f"results/ci/report/tables/{n}" for n in LINE_TABLES])
     assert len(figures) >= 30                                     # 15 per span type in the small profile
     missing = sorted(set(figures + tables) - set(results))
     assert not missing, missing
@@ -71,12 +73,26 @@ def test_every_figure_and_table_is_in_the_report_with_a_caption(report):
     assert {"Whole recording", "Validation against the campaign's truth"} <= set(categories)
 
 
-def test_embedded_tables_are_the_files(report):
+def test_embedded_tables_are_the_files_in_an_engineers_units(report):
     _, results, _ = report
     for path, entry in results.items():
         if entry["mime_type"] == "text/csv":
             embedded = base64.b64decode(entry["data_uri"].split(",", 1)[1]).decode("utf-8")
             assert embedded == (ROOT / path).read_text(encoding="utf-8"), path
+            # a copy of the machine table, row for row; the machine table keeps SI
+            assert path.startswith("results/ci/report/tables/"), path
+            machine = ROOT / "results" / "ci" / path.removeprefix("results/ci/report/tables/")
+            assert len(pd.read_csv(ROOT / path)) == len(pd.read_csv(machine)), path
+    for span_type in SPAN_TYPES:                                  # a dropper in mm, a tension in N
+        machine = pd.read_csv(RESULTS / span_type / "identification" / "s_opt.csv").set_index("parameter")
+        shown = pd.read_csv(RESULTS / "report" / "tables" / span_type / "identification" / "s_opt.csv").set_index("parameter")
+        for name, label, factor in (("dropper_1_length_m", "dropper 1 length [mm]", 1e3),
+                                    ("messenger_tension_n", "messenger tension T_MW [N]", 1.0),
+                                    ("system_height_m", "system height ΔH [mm]", 1e3)):
+            for column in ("mu", "sigma", "sigma se"):
+                # 6 significant digits written (%.6g): 1 part in 10⁵ of the value
+                assert shown.loc[label, column] == pytest.approx(factor * machine.loc[name, column.replace(" ", "_")],
+                                                                rel=1e-5, abs=1e-9)
 
 
 def test_front_page_summarises_each_span_type(report):
@@ -143,3 +159,77 @@ def test_report_renders_in_a_browser_with_every_image(report, tmp_path):
     for span_type in SPAN_TYPES:                                  # the front page as the browser shows it
         assert f"\n{span_type}\n" in out["front"]
     assert "Summary per span type" in out["front"] and "Table 2 analogue" in out["front"]
+
+
+LAYOUT = """<script>
+window.addEventListener('load', function () {
+  var pre = document.createElement('pre'); pre.id = 'catenary-layout'; document.body.appendChild(pre);
+  var out = {error: null};
+  function write() { pre.textContent = JSON.stringify(out); }
+  (async function () {
+    for (var k = 0; k < 200 && !document.querySelector('canvas'); k++) {   // the workflow graph drawn
+      await new Promise(function (r) { setTimeout(r, 50); });
+    }
+    await new Promise(function (r) { setTimeout(r, 500); });
+    var graph = document.querySelector('canvas');
+    var main = graph && graph.closest('div.gap-3');                  // the front page and the graph
+    if (!main) { out.error = 'no workflow graph beside the front page'; return; }
+    var doc = main.querySelector('div.document');
+    out.text = doc ? doc.innerText : '';
+    out.title_top = doc ? doc.getBoundingClientRect().top : null;
+    out.boxes = Array.from(main.querySelectorAll('table, p, ul, ol, h1, h2, h3, h4, pre, img, canvas'))
+      .map(function (e, i) { e.dataset.k = i; return e; })
+      .filter(function (e) { var r = e.getBoundingClientRect(); return r.width > 0 && r.height > 0; })
+      .map(function (e) {
+        var r = e.getBoundingClientRect(), up = [], a = e.parentElement;
+        for (; a && a !== main; a = a.parentElement) { if (a.dataset.k !== undefined) up.push(+a.dataset.k); }
+        return {k: +e.dataset.k, tag: e.tagName, text: (e.innerText || '').slice(0, 40), up: up,
+                left: r.left, top: r.top, right: r.right, bottom: r.bottom};
+      });
+  })().catch(function (e) { out.error = String(e); }).finally(write);
+  write();
+});
+</script>"""
+
+
+@pytest.mark.skipif(shutil.which("chromium") is None,
+                    reason="Debian's chromium is not installed (make test-pipeline installs it as root: tests/install_browser.sh)")
+def test_the_front_page_reads_at_1400_px_without_an_element_on_another(report, tmp_path):
+    # The front page as a maintainer opens it, in a 1 400 px window: it starts at its top (not cut
+    # off above the window), says per span type the maintenance headline and the contact-force
+    # verdict, speaks mm and N, and no block (table, paragraph, list, heading, figure, the
+    # workflow graph) lies on another that does not hold it.
+    text, _, _ = report
+    page = tmp_path / "report.html"
+    end = text.rindex("</body>")
+    page.write_text(text[:end] + LAYOUT + text[end:], encoding="utf-8")
+    run = subprocess.run(["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000",
+                          "--virtual-time-budget=30000", "--dump-dom", page.as_uri()],
+                         capture_output=True, text=True, timeout=300)
+    found = re.search(r'<pre id="catenary-layout">(.*?)</pre>', run.stdout, re.S)
+    assert found, run.stderr[-2000:]
+    out = json.loads(html.unescape(found.group(1)))
+    assert out["error"] is None, out["error"]
+    assert out["title_top"] >= 0                                     # its top can be read
+    front = out["text"]
+    for span_type in SPAN_TYPES:
+        section = front.split(f"\n{span_type}\n")[1]
+        assert "Maintenance:" in section and "Contact force (EN 50367)" in section
+        assert "km/h: meets" in section or "km/h: fails" in section
+        assert "dropper 1 length [mm]" in section and "messenger tension T_MW [N]" in section
+        assert "system height ΔH [mm]" in section
+    # no input in SI names, no length in metres with the digits of a millimetre (1.38692 m)
+    assert "_length_m" not in front and "system_height_m" not in front and "messenger_tension_n" not in front
+    assert not re.search(r"(?<![\d.])\d\.\d{4,}(?!\d)", front), re.findall(r"(?<![\d.])\d\.\d{4,}", front)[:5]
+    boxes = out["boxes"]
+    assert sum(b["tag"] == "TABLE" for b in boxes) >= 2 * len(SPAN_TYPES) and any(b["tag"] == "CANVAS" for b in boxes)
+    overlaps = []
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            if a["k"] in b["up"] or b["k"] in a["up"]:
+                continue                                             # one holds the other
+            width = min(a["right"], b["right"]) - max(a["left"], b["left"])
+            height = min(a["bottom"], b["bottom"]) - max(a["top"], b["top"])
+            if width > 1 and height > 1:                             # a shared border is not an overlap
+                overlaps.append((a["tag"], a["text"], b["tag"], b["text"], round(width), round(height)))
+    assert not overlaps, overlaps[:10]

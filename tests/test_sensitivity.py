@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from catenary.sensitivity import run_sensitivity
+from catenary.stages.sensitivity import run_sensitivity
 
 
 @pytest.fixture(scope="module", params=["N2", "N3"])

@@ -1,4 +1,4 @@
-"""The default campaign shipped in data/default_campaign (catenary.shipped).
+"""The default campaign shipped in data/default_campaign (catenary.measurement.shipped).
 
 ``make run`` copies it instead of simulating it while its manifest matches the configured
 campaign, catenary and pantographs files. These tests hold the copy to what it claims: written
@@ -16,9 +16,9 @@ import pandas as pd
 import pytest
 import yaml
 
-from catenary.errors import InputError
-from catenary.parquet import read_table
-from catenary.shipped import FILES, SOURCES, copy_out, matches
+from catenary.measurement.shipped import FILES, SOURCES, copy_out, matches
+from catenary.plumbing.errors import InputError
+from catenary.plumbing.parquet import read_table
 
 from .conftest import ROOT, workflow_dir
 

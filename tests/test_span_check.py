@@ -4,9 +4,9 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from catenary.diagnosis.span_check import (SpanCheckSettings, WLaw, benjamini_hochberg, check_spans, section_tests,
+from catenary.stages.diagnosis.span_check import (SpanCheckSettings, WLaw, benjamini_hochberg, check_spans, section_tests,
                                            w_law, w_tests)
-from catenary.fast import FastSpanModel
+from catenary.physics.fast import FastSpanModel
 
 
 def model_law(catenary, n2) -> WLaw:

@@ -15,9 +15,9 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from catenary.diagnosis.profile_check import ProfileSettings, profile_tests
-from catenary.diagnosis.span_check import SpanCheckSettings, check_spans
-from catenary.fast import FastSpanModel
+from catenary.physics.fast import FastSpanModel
+from catenary.stages.diagnosis.profile_check import ProfileSettings, profile_tests
+from catenary.stages.diagnosis.span_check import SpanCheckSettings, check_spans
 
 from .test_profile_check import DROPPERS_M, LENGTH_M, T_CW_N, synthetic_profiles
 from .test_span_check import model_law

@@ -5,10 +5,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from catenary.dropper_table import nominal_dropper_lengths
-from catenary.errors import ConfigError, ConvergenceError
-from catenary.section import Section, single_span, uniform_section
-from catenary.static import StaticModel, solve_static
+from catenary.physics.dropper_table import nominal_dropper_lengths
+from catenary.physics.section import Section, single_span, uniform_section
+from catenary.physics.static import StaticModel, solve_static
+from catenary.plumbing.errors import ConfigError, ConvergenceError
 
 
 def bare_wires(span_m=58.5, t_cw=25500.0, t_mw=20575.0):

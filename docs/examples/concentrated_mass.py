@@ -13,7 +13,7 @@ mass and its position on every span it could not explain, and says which spans t
 explains (docs/diagnosis.md, "An effect of your own").
 """
 
-from catenary.effects import Effect, EffectParameter
+from catenary.physics.effects import Effect, EffectParameter
 
 
 def concentrated_mass(p, z, *, mass_kg: float, x_m: float) -> None:

@@ -2,9 +2,9 @@ import os
 
 import yaml
 
-from catenary.schema import check as check_schema, merged_mapping
-from catenary.shipped import FILES as SHIPPED_FILES, MANIFEST as SHIPPED_MANIFEST, SOURCES as SHIPPED_SOURCES
-from catenary.shipped import matches as shipped_campaign_matches
+from catenary.plumbing.schema import check as check_schema, merged_mapping
+from catenary.measurement.shipped import FILES as SHIPPED_FILES, MANIFEST as SHIPPED_MANIFEST, SOURCES as SHIPPED_SOURCES
+from catenary.measurement.shipped import matches as shipped_campaign_matches
 
 RESULTS = config["results"]
 SPAN_TYPES = config["span_types"]
@@ -19,7 +19,7 @@ SURVEY_FILES = (sorted({os.path.join(os.path.dirname(str(p)), "survey.csv") for 
                         if os.path.basename(os.path.dirname(str(p))) == "campaign"})[:1]
                 if _SURVEY == "campaign" else [_SURVEY] if _SURVEY else [])
 # The campaign's outputs shipped for these very files (data/default_campaign for make run) are
-# copied, not simulated, while the copy's manifest matches them (catenary.shipped).
+# copied, not simulated, while the copy's manifest matches them (catenary.measurement.shipped).
 CAMPAIGN_COPY = config.get("campaign_copy")
 CAMPAIGN_COPIED, CAMPAIGN_COPY_WHY = shipped_campaign_matches(
     CAMPAIGN_COPY, {key: config[key] for key in SHIPPED_SOURCES}
@@ -45,7 +45,7 @@ CATENARY = _load_catenary_config()
 def _per_span_type_settings():
     """{block: {span type: settings}} for the blocks that `per_span_type` may override; each
     merged block is checked against the same schema as the global one."""
-    from catenary.errors import ConfigError
+    from catenary.plumbing.errors import ConfigError
 
     overrides = config.get("per_span_type") or {}
     unknown = sorted(set(overrides) - set(SPAN_TYPES))
@@ -88,10 +88,27 @@ VALIDATION = "Validation against the campaign's truth"
 
 
 def reported(path, caption, stage, title, category="{span_type}"):
-    """``path`` flagged for the report, captioned by workflow/report/``caption``.rst and filed
-    under ``category`` (by default the job's span type) and ``stage``."""
+    """A figure at ``path`` flagged for the report, captioned by workflow/report/``caption``.rst
+    and filed under ``category`` (by default the job's span type) and ``stage``. (A table: table().)"""
+    if path.endswith(".csv"):
+        raise ValueError(f"{path}: a table goes to the report through table(), in an engineer's units")
     return report(path, caption=f"../report/{caption}.rst", category=category, subcategory=stage,
                   labels={"result": title, "file": os.path.basename(path)})
+
+
+def report_table(path):
+    """Where the report's copy of the machine table ``path`` lies (under report/tables/)."""
+    return f"{RESULTS}/report/tables/{os.path.relpath(path, RESULTS)}"
+
+
+def table(name, path, caption, stage, title, category="{span_type}"):
+    """A rule's table: output ``name`` at ``path``, the machine file (SI, ``_m`` / ``_n`` names),
+    and ``<name>_shown``, its copy in an engineer's units (report_table()) flagged for the report as
+    reported() flags a figure. The rule's script writes both (catenary.report.tables.write_shown);
+    use as ``**table(...)`` among a rule's outputs."""
+    return {name: path, f"{name}_shown": report(report_table(path), caption=f"../report/{caption}.rst",
+                                                 category=category, subcategory=stage,
+                                                 labels={"result": title, "file": os.path.basename(path)})}
 
 
 def later_laws(wildcards):
@@ -103,11 +120,17 @@ def later_laws(wildcards):
 
 
 FRONT_PAGE = f"{RESULTS}/report/front_page.rst"
+# `make own-data` (target `measurements`) runs no contact-force study: its front page is written
+# apart, by rule front_page_measurements, without the study's verdict and what fixing buys.
+FRONT_PAGE_MEASUREMENTS = f"{RESULTS}/report/front_page_measurements.rst"
 
 
-def front_page_inputs(wildcards):
-    """s_opt.csv, model_error.csv, findings.csv and the diagnosis' spans, sections and
-    recommendations of every measured span type, keyed s_opt_<type>, model_error_<type>, …"""
+def front_page_inputs(wildcards, contact_force=True):
+    """Per measured span type, what the front page reads, keyed <kind>_<type>: s_opt.csv,
+    model_error.csv, the diagnosis' findings, spans, sections and recommendations, the
+    maintenance list (unless `maintenance.enabled` is false) and, with ``contact_force``, the
+    contact-force summary and what fixing buys."""
+    maintenance = (config.get("maintenance") or {}).get("enabled", True)
     inputs = {}
     for span_type in measured_span_types():
         inputs[f"s_opt_{span_type}"] = f"{RESULTS}/{span_type}/identification/s_opt.csv"
@@ -116,7 +139,19 @@ def front_page_inputs(wildcards):
         inputs[f"spans_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/spans.csv"
         inputs[f"sections_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/sections.csv"
         inputs[f"recommendations_{span_type}"] = f"{RESULTS}/{span_type}/diagnosis/recommendations.csv"
+        if maintenance:
+            inputs[f"maintenance_{span_type}"] = f"{RESULTS}/{span_type}/maintenance/maintenance.csv"
+        if contact_force:
+            inputs[f"contact_force_{span_type}"] = f"{RESULTS}/{span_type}/contact_force/summary.csv"
+            if maintenance:
+                inputs[f"repair_{span_type}"] = f"{RESULTS}/{span_type}/maintenance/repair_summary.csv"
     return inputs
+
+
+def front_page_limits(wildcards):
+    """Per measured span type, its `contact_force` settings (the EN 50367 limits the front page
+    states)."""
+    return {t: SPAN_TYPE_SETTINGS["contact_force"][t] for t in measured_span_types()}
 
 
 def _campaign_sections():
@@ -211,7 +246,7 @@ def measured_outputs(wildcards=None, contact_force=True):
         outputs += contact_force_outputs(types)
         if (config.get("maintenance") or {}).get("enabled", True):
             outputs += expand(f"{RESULTS}/{{span_type}}/maintenance/repair_summary.csv", span_type=types)
-    return outputs + [FRONT_PAGE]
+    return outputs + [FRONT_PAGE if contact_force else FRONT_PAGE_MEASUREMENTS]
 
 
 def correction_sections(wildcards=None):
@@ -228,7 +263,7 @@ def model_error_sections():
     import pandas as pd
     import pyarrow.parquet as pq
 
-    from catenary.model_error.sources import ModelErrorSettings
+    from catenary.stages.model_error.sources import ModelErrorSettings
 
     outputs = checkpoints.project.get().output.spans
     spans = pd.concat([pq.read_table(path, columns=["section_id"]).to_pandas().assign(span_type=span_type)
@@ -276,7 +311,7 @@ def maintenance_outputs(span_types=SPAN_TYPES):
 
 def contact_force_batches(span_type):
     """Batch files of the contact-force study of one span type (every case, every batch)."""
-    from catenary.contact_force.settings import ContactForceSettings, n_batches
+    from catenary.stages.contact_force.settings import ContactForceSettings, n_batches
 
     settings = ContactForceSettings.from_mapping(SPAN_TYPE_SETTINGS["contact_force"][span_type])
     n_droppers = len(CATENARY["span_types"][span_type]["dropper_positions_m"])

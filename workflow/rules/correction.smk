@@ -51,10 +51,10 @@ rule correction:
     output:
         corrected=expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES),
         profiles=expand(f"{RESULTS}/{{span_type}}/corrected_profiles.parquet", span_type=SPAN_TYPES),
-        convergence=reported(f"{RESULTS}/correction/convergence.csv", "correction_convergence", CORRECTION, "Convergence per iteration", category=LINE),
-        summary=reported(f"{RESULTS}/correction/summary.csv", "correction_summary", CORRECTION, "Correction per span type", category=LINE),
+        **table("convergence", f"{RESULTS}/correction/convergence.csv", "correction_convergence", CORRECTION, "Convergence per iteration", category=LINE),
+        **table("summary", f"{RESULTS}/correction/summary.csv", "correction_summary", CORRECTION, "Correction per span type", category=LINE),
         model_error=f"{RESULTS}/correction/model_error.parquet",
-        budget=reported(f"{RESULTS}/correction/model_error_budget.csv", "model_error_budget", CORRECTION, "Model-error budget of the correction", category=LINE),
+        **table("budget", f"{RESULTS}/correction/model_error_budget.csv", "model_error_budget", CORRECTION, "Model-error budget of the correction", category=LINE),
     params:
         span_types=SPAN_TYPES,
     log:
@@ -74,7 +74,7 @@ rule correction_check:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         truth=f"{RESULTS}/campaign/truth.parquet",
     output:
-        summary=reported(f"{RESULTS}/validation/correction_check.csv", "validation_correction", CORRECTION, "Correction vs truth", category=VALIDATION),
+        **table("summary", f"{RESULTS}/validation/correction_check.csv", "validation_correction", CORRECTION, "Correction vs truth", category=VALIDATION),
     params:
         span_types=SPAN_TYPES,
     log:

@@ -15,19 +15,19 @@ rule diagnose:
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:
-        findings=reported(f"{RESULTS}/{{span_type}}/diagnosis/findings.csv", "findings", DIAGNOSIS, "Findings per step"),
-        candidates=reported(f"{RESULTS}/{{span_type}}/diagnosis/candidates.csv", "candidates", DIAGNOSIS, "Every candidate"),
+        **table("findings", f"{RESULTS}/{{span_type}}/diagnosis/findings.csv", "findings", DIAGNOSIS, "Findings per step"),
+        **table("candidates", f"{RESULTS}/{{span_type}}/diagnosis/candidates.csv", "candidates", DIAGNOSIS, "Every candidate"),
         steps=f"{RESULTS}/{{span_type}}/diagnosis/steps.json",
         residuals=reported(f"{RESULTS}/{{span_type}}/diagnosis/residuals.png", "residuals", DIAGNOSIS, "Residuals per dropper"),
         eigenvalues=reported(f"{RESULTS}/{{span_type}}/diagnosis/eigenvalues.png", "eigenvalues", DIAGNOSIS, "Whitened eigenvalues"),
         qq=reported(f"{RESULTS}/{{span_type}}/diagnosis/mahalanobis_qq.png", "mahalanobis_qq", DIAGNOSIS, "Mahalanobis QQ"),
         scores=reported(f"{RESULTS}/{{span_type}}/diagnosis/score_screen.png", "score_screen", DIAGNOSIS, "Score screen"),
         summary=f"{RESULTS}/{{span_type}}/diagnosis/summary.md",
-        spans=reported(f"{RESULTS}/{{span_type}}/diagnosis/spans.csv", "diagnosis_spans", DIAGNOSIS, "Every span: explained or not"),
+        **table("spans", f"{RESULTS}/{{span_type}}/diagnosis/spans.csv", "diagnosis_spans", DIAGNOSIS, "Every span: explained or not"),
         sections=f"{RESULTS}/{{span_type}}/diagnosis/sections.csv",
         spans_figure=reported(f"{RESULTS}/{{span_type}}/diagnosis/spans.png", "diagnosis_spans_figure", DIAGNOSIS, "Unexplained spans along the line"),
         span_effects=f"{RESULTS}/{{span_type}}/diagnosis/span_effects.csv",
-        recommendations=reported(f"{RESULTS}/{{span_type}}/diagnosis/recommendations.csv", "recommendations", DIAGNOSIS, "What to measure next"),
+        **table("recommendations", f"{RESULTS}/{{span_type}}/diagnosis/recommendations.csv", "recommendations", DIAGNOSIS, "What to measure next"),
     params:
         effects_modules=config.get("effects_modules", []),
         measurements=config.get("measurements"),
@@ -60,7 +60,7 @@ rule diagnosis_check:
         truth=f"{RESULTS}/campaign/truth.parquet",
         catenary=config["catenary"],
     output:
-        summary=reported(f"{RESULTS}/validation/diagnosis_check.csv", "validation_diagnosis", DIAGNOSIS, "Diagnosis vs truth", category=VALIDATION),
+        **table("summary", f"{RESULTS}/validation/diagnosis_check.csv", "validation_diagnosis", DIAGNOSIS, "Diagnosis vs truth", category=VALIDATION),
     params:
         span_types=SPAN_TYPES,
     log:
@@ -84,7 +84,7 @@ rule spans_check:
         truth=f"{RESULTS}/campaign/truth.parquet",
         catenary=config["catenary"],
     output:
-        summary=reported(f"{RESULTS}/validation/spans_check.csv", "validation_spans", DIAGNOSIS, "Unexplained spans vs truth", category=VALIDATION),
+        **table("summary", f"{RESULTS}/validation/spans_check.csv", "validation_spans", DIAGNOSIS, "Unexplained spans vs truth", category=VALIDATION),
     params:
         span_types=SPAN_TYPES,
         campaign=lambda wc: os.path.basename(config["campaign"]).removesuffix(".yaml").removesuffix("_campaign"),

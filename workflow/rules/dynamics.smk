@@ -4,7 +4,7 @@ rule dynamics:
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:
-        statistics=reported(f"{RESULTS}/{{span_type}}/dynamics/statistics.csv", "dynamics_statistics", PAPER, "EN 50318 statistics"),
+        **table("statistics", f"{RESULTS}/{{span_type}}/dynamics/statistics.csv", "dynamics_statistics", PAPER, "EN 50318 statistics"),
         figure=reported(f"{RESULTS}/{{span_type}}/dynamics/contact_force.png", "dynamics_figure", PAPER, "Contact force at speed"),
     params:
         dynamics=config["dynamics"],

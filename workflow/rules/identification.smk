@@ -7,7 +7,7 @@ rule repeatability:
     input:
         corrected=f"{RESULTS}/{{span_type}}/corrected.parquet",
     output:
-        summary=reported(f"{RESULTS}/{{span_type}}/repeatability/summary.csv", "repeatability", IDENTIFICATION, "Repeatability"),
+        **table("summary", f"{RESULTS}/{{span_type}}/repeatability/summary.csv", "repeatability", IDENTIFICATION, "Repeatability"),
         spans=f"{RESULTS}/{{span_type}}/repeatability/spans.csv",
         noise=f"{RESULTS}/{{span_type}}/repeatability/noise.json",
     params:
@@ -34,7 +34,7 @@ rule identify:
         survey=SURVEY_FILES,
         catenary=config["catenary"],
     output:
-        s_opt=reported(f"{RESULTS}/{{span_type}}/identification/s_opt.csv", "s_opt", IDENTIFICATION, "Table 2: s_opt"),
+        **table("s_opt", f"{RESULTS}/{{span_type}}/identification/s_opt.csv", "s_opt", IDENTIFICATION, "Table 2: s_opt"),
         trace=f"{RESULTS}/{{span_type}}/identification/trace.parquet",
         estimators=reported(f"{RESULTS}/{{span_type}}/identification/estimators.png", "estimators", IDENTIFICATION, "Fig. 7: estimators"),
         normality=f"{RESULTS}/{{span_type}}/identification/normality.json",
@@ -71,7 +71,7 @@ rule identify_explained:
         catenary=config["catenary"],
     output:
         s_opt=f"{RESULTS}/{{span_type}}/identification/s_opt_explained.csv",
-        comparison=reported(f"{RESULTS}/{{span_type}}/identification/laws_comparison.csv", "laws_comparison", IDENTIFICATION, "Laws with and without the unexplained spans"),
+        **table("comparison", f"{RESULTS}/{{span_type}}/identification/laws_comparison.csv", "laws_comparison", IDENTIFICATION, "Laws with and without the unexplained spans"),
     params:
         identification=span_type_settings("identification"),
         model_error_enabled=config.get("model_error", {}).get("enabled", False),
@@ -94,7 +94,7 @@ rule identification_check:
         corrected=expand(f"{RESULTS}/{{span_type}}/corrected.parquet", span_type=SPAN_TYPES),
         truth=f"{RESULTS}/campaign/truth.parquet",
     output:
-        summary=reported(f"{RESULTS}/validation/identification_check.csv", "validation_identification", IDENTIFICATION, "Identification vs truth", category=VALIDATION),
+        **table("summary", f"{RESULTS}/validation/identification_check.csv", "validation_identification", IDENTIFICATION, "Identification vs truth", category=VALIDATION),
     params:
         span_types=SPAN_TYPES,
     log:
@@ -118,7 +118,7 @@ rule repeatability_check:
         truth=f"{RESULTS}/campaign/truth.parquet",
         truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
     output:
-        summary=reported(f"{RESULTS}/validation/repeatability_check.csv", "validation_repeatability", IDENTIFICATION, "Repeatability vs truth", category=VALIDATION),
+        **table("summary", f"{RESULTS}/validation/repeatability_check.csv", "validation_repeatability", IDENTIFICATION, "Repeatability vs truth", category=VALIDATION),
     params:
         span_types=SPAN_TYPES,
     log:

@@ -8,7 +8,7 @@ rule invert:
         catenary=config["catenary"],
     output:
         droppers=f"{RESULTS}/{{span_type}}/inversion/droppers.parquet",
-        table1=reported(f"{RESULTS}/{{span_type}}/inversion/table1.csv", "table1", INVERSION, "Table 1"),
+        **table("table1", f"{RESULTS}/{{span_type}}/inversion/table1.csv", "table1", INVERSION, "Table 1"),
         pearson=reported(f"{RESULTS}/{{span_type}}/inversion/pearson.png", "pearson", INVERSION, "Fig. 8: correlations"),
     params:
         inversion=config["inversion"],
@@ -28,7 +28,7 @@ rule tension_impact:
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:
-        summary=reported(f"{RESULTS}/{{span_type}}/tension_impact/summary.csv", "tension_impact_summary", PAPER, "Fig. 6: summary"),
+        **table("summary", f"{RESULTS}/{{span_type}}/tension_impact/summary.csv", "tension_impact_summary", PAPER, "Fig. 6: summary"),
         figure=reported(f"{RESULTS}/{{span_type}}/tension_impact/tension_impact.png", "tension_impact", PAPER, "Fig. 6: T_MW impact"),
     params:
         tension_impact=config["tension_impact"],

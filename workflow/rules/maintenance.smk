@@ -16,10 +16,10 @@ rule maintenance:
         catenary=config["catenary"],
     output:
         posterior=f"{RESULTS}/{{span_type}}/maintenance/posterior.parquet",
-        listed=reported(f"{RESULTS}/{{span_type}}/maintenance/maintenance.csv", "maintenance_list", MAINTENANCE, "Maintenance list"),
+        **table("listed", f"{RESULTS}/{{span_type}}/maintenance/maintenance.csv", "maintenance_list", MAINTENANCE, "Maintenance list"),
         figure=reported(f"{RESULTS}/{{span_type}}/maintenance/chainage.png", "maintenance_chainage", MAINTENANCE, "Deviations along the line"),
         band=f"{RESULTS}/{{span_type}}/maintenance/population_band.csv",
-        band_coverage=reported(f"{RESULTS}/{{span_type}}/maintenance/population_coverage.csv", "maintenance_band_coverage", MAINTENANCE, "Posterior band: coverage"),
+        **table("band_coverage", f"{RESULTS}/{{span_type}}/maintenance/population_coverage.csv", "maintenance_band_coverage", MAINTENANCE, "Posterior band: coverage"),
         band_figure=reported(f"{RESULTS}/{{span_type}}/maintenance/population_band.png", "maintenance_band", MAINTENANCE, "Posterior band"),
     params:
         identification=span_type_settings("identification"),
@@ -43,7 +43,7 @@ rule maintenance_check:
         inversion=expand(f"{RESULTS}/{{span_type}}/inversion/droppers.parquet", span_type=SPAN_TYPES),
         truth=f"{RESULTS}/campaign/truth.parquet",
     output:
-        coverage=reported(f"{RESULTS}/validation/maintenance_check.csv", "validation_maintenance", MAINTENANCE, "Posteriors vs truth", category=VALIDATION),
+        **table("coverage", f"{RESULTS}/validation/maintenance_check.csv", "validation_maintenance", MAINTENANCE, "Posteriors vs truth", category=VALIDATION),
         roc=f"{RESULTS}/validation/maintenance_list_check.csv",
     params:
         span_types=SPAN_TYPES,
@@ -68,7 +68,7 @@ rule maintenance_repair:
         pantographs=config["pantographs"],
     output:
         table=f"{RESULTS}/{{span_type}}/maintenance/repair.csv",
-        summary=reported(f"{RESULTS}/{{span_type}}/maintenance/repair_summary.csv", "maintenance_repair", MAINTENANCE, "What fixing buys"),
+        **table("summary", f"{RESULTS}/{{span_type}}/maintenance/repair_summary.csv", "maintenance_repair", MAINTENANCE, "What fixing buys"),
     params:
         contact_force=span_type_settings("contact_force"),
     log:

@@ -3,7 +3,7 @@ if CAMPAIGN_COPIED:
     rule campaign_copy:
         """The campaign's outputs from the copy shipped for these very campaign, catenary and
         pantographs files (its manifest checked when the DAG is built, each file's SHA-256 here):
-        the simulation's files without simulating (catenary.shipped)."""
+        the simulation's files without simulating (catenary.measurement.shipped)."""
         input:
             files=[os.path.join(CAMPAIGN_COPY, name) for name in (SHIPPED_MANIFEST, *SHIPPED_FILES)],
             campaign=config["campaign"],
@@ -113,8 +113,8 @@ rule register:
         pantographs=config["pantographs"],
     output:
         table=f"{RESULTS}/registration/masts_table.csv",
-        masts=reported(f"{RESULTS}/registration/masts.csv", "registration_masts", PROJECTION, "Registered masts", category=LINE),
-        sections=reported(f"{RESULTS}/registration/sections.csv", "registration_sections", PROJECTION, "Registered sections", category=LINE),
+        **table("masts", f"{RESULTS}/registration/masts.csv", "registration_masts", PROJECTION, "Registered masts", category=LINE),
+        **table("sections", f"{RESULTS}/registration/sections.csv", "registration_sections", PROJECTION, "Registered sections", category=LINE),
         figure=reported(f"{RESULTS}/registration/residuals.png", "registration_residuals", PROJECTION, "Registration residuals", category=LINE),
     params:
         registration=config["registration"],
@@ -144,7 +144,7 @@ checkpoint project:
     output:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         profiles=expand(f"{RESULTS}/{{span_type}}/profiles.parquet", span_type=SPAN_TYPES),
-        report=reported(f"{RESULTS}/spans_report.csv", "spans_report", PROJECTION, "Spans used and rejected", category=LINE),
+        **table("report", f"{RESULTS}/spans_report.csv", "spans_report", PROJECTION, "Spans used and rejected", category=LINE),
     params:
         projection=config["projection"],
         registration=config["registration"],
@@ -169,7 +169,7 @@ rule registration_check:
         masts_truth=f"{RESULTS}/campaign/masts_truth.csv",
         truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
     output:
-        summary=reported(f"{RESULTS}/validation/registration_check.csv", "validation_registration", PROJECTION, "Registration vs truth", category=VALIDATION),
+        **table("summary", f"{RESULTS}/validation/registration_check.csv", "validation_registration", PROJECTION, "Registration vs truth", category=VALIDATION),
     log:
         f"{RESULTS}/logs/registration_check.log",
     benchmark:
@@ -213,7 +213,7 @@ rule projection_check:
         truth=f"{RESULTS}/campaign/truth.parquet",
         truth_runs=f"{RESULTS}/campaign/truth_runs.parquet",
     output:
-        summary=reported(f"{RESULTS}/validation/projection_round_trip.csv", "validation_projection", PROJECTION, "Projection vs truth", category=VALIDATION),
+        **table("summary", f"{RESULTS}/validation/projection_round_trip.csv", "validation_projection", PROJECTION, "Projection vs truth", category=VALIDATION),
     params:
         span_types=SPAN_TYPES,
     log:

@@ -3,7 +3,7 @@ rule dropper_table:
     input:
         catenary=config["catenary"],
     output:
-        table=reported(f"{RESULTS}/{{span_type}}/nominal/dropper_table.csv", "dropper_table", PAPER, "Nominal dropper table"),
+        **table("table", f"{RESULTS}/{{span_type}}/nominal/dropper_table.csv", "dropper_table", PAPER, "Nominal dropper table"),
     log:
         f"{RESULTS}/logs/dropper_table/{{span_type}}.log",
     benchmark:
@@ -19,7 +19,7 @@ rule sensitivity:
     input:
         catenary=config["catenary"],
     output:
-        summary=reported(f"{RESULTS}/{{span_type}}/sensitivity/summary.csv", "sensitivity_summary", PAPER, "Figs 2–4: summary"),
+        **table("summary", f"{RESULTS}/{{span_type}}/sensitivity/summary.csv", "sensitivity_summary", PAPER, "Figs 2–4: summary"),
         fig2=reported(f"{RESULTS}/{{span_type}}/sensitivity/fig2_tensions.png", "fig2_tensions", PAPER, "Fig. 2: tensions"),
         fig3=reported(f"{RESULTS}/{{span_type}}/sensitivity/fig3_steady_arms.png", "fig3_steady_arms", PAPER, "Fig. 3: steady arms"),
         fig4=reported(f"{RESULTS}/{{span_type}}/sensitivity/fig4_system_height.png", "fig4_system_height", PAPER, "Fig. 4: system height"),

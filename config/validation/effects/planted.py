@@ -9,7 +9,7 @@ imports it. A user who writes an effect of the same physics for the diagnosis wr
 import numpy as np
 from scipy import special
 
-from catenary.effects import Effect
+from catenary.physics.effects import Effect
 
 
 def in_span_equipment(p, z, *, fraction: float, min_kg: float, max_kg: float, clearance_m: float = 1.0) -> None:

@@ -1,0 +1,143 @@
+"""Inverse static problem: dropper lengths that give a target contact-wire profile.
+
+With the CW heights prescribed at the droppers, the CW equilibrium alone gives the dropper
+tensions (9 equations, 9 unknowns per span); loading the MW with those tensions gives its
+heights, and each unstretched length follows from Hooke's law,
+``L = l · EA / (EA + F)`` with ``l`` the stretched length. The half dropper weight carried by
+each wire depends on ``L``, so the three steps are repeated until the lengths stop changing
+(a contraction: two or three passes reach 1e-12 m). The same solver builds the nominal
+dropper table, updates dropper lengths in the dynamic correction and inverts measured spans.
+
+A target that would need a dropper in compression has no taut solution. With
+``allow_slack=True`` such droppers are made slack instead: their CW height is released (the
+wire hangs there from its neighbours) and their length is set ``SLACK_MARGIN_M`` longer than
+the distance between the wires, so they stay slack under an uplift; the others are solved
+again, until every prescribed dropper pulls.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import Catenary, SpanType
+from catenary.plumbing.errors import ConvergenceError, NoTautSolutionError
+from .section import Section, single_span
+from .static import StaticModel
+
+
+@dataclass(frozen=True)
+class InverseResult:
+    """Dropper lengths reproducing a target CW profile.
+
+    Attributes
+    ----------
+    dropper_lengths_m : numpy.ndarray
+        Unstretched dropper lengths [m].
+    dropper_force_n : numpy.ndarray
+        Dropper tensions at equilibrium [N].
+    section : Section
+        The section with those lengths.
+    slack : numpy.ndarray of bool
+        Droppers made slack (their target height released); all False unless ``allow_slack``.
+    """
+
+    dropper_lengths_m: np.ndarray
+    dropper_force_n: np.ndarray
+    section: Section
+    slack: np.ndarray
+
+#: A dropper made slack by the inverse solver is this much longer than the wire distance [m].
+SLACK_MARGIN_M = 0.01
+
+
+def presag_deflection_m(span_type: SpanType, x_m: np.ndarray) -> np.ndarray:
+    """Designed CW deflection from the chord [m]: a parabola of depth ``presag_m`` between the
+    first and the last dropper, zero outside (negative = below the chord)."""
+    x = np.asarray(x_m, dtype=float)
+    a, b = span_type.dropper_positions_m[0], span_type.dropper_positions_m[-1]
+    inside = (x >= a) & (x <= b)
+    return np.where(inside, -4.0 * span_type.presag_m * (x - a) * (b - x) / (b - a) ** 2, 0.0)
+
+
+def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heights_m: np.ndarray, *,
+                                   tolerance_m: float = 1e-12, max_iterations: int = 20,
+                                   allow_slack: bool = False) -> InverseResult:
+    """Unstretched dropper lengths giving the CW heights ``cw_heights_m`` at every dropper.
+
+    Parameters
+    ----------
+    section : Section
+        Geometry and tensions; its dropper lengths are the starting guess.
+    catenary : Catenary
+    cw_heights_m : array_like
+        Target CW height at each dropper's CW clamp [m] (at the dropper for vertical ones).
+    allow_slack : bool
+        Make droppers slack where the target needs compression (module docstring), instead of
+        raising.
+
+    Raises
+    ------
+    NoTautSolutionError
+        If the target needs a dropper in compression (no taut solution exists) and
+        ``allow_slack`` is False.
+    ValueError
+        If ``cw_heights_m`` has the wrong size (a programming error).
+    ConvergenceError
+        If the lengths do not settle (should not happen: the weight coupling is weak).
+    """
+    target = np.asarray(cw_heights_m, dtype=float)
+    if target.shape != section.dropper_lengths_m.shape:
+        raise ValueError(f"cw_heights_m: expected {section.dropper_lengths_m.size} heights, got {target.size}")
+    ea = catenary.droppers.axial_stiffness_n
+    lengths = section.dropper_lengths_m.copy()
+    no_droppers = np.zeros(lengths.size, dtype=bool)
+    slack = np.zeros(lengths.size, dtype=bool)
+    for _ in range(max_iterations):
+        model = StaticModel(section.with_dropper_lengths(lengths), catenary)
+        # CW with its (pulling) dropper points prescribed: the reactions there are the dropper tensions.
+        while True:
+            held = ~slack
+            u, k, f = model.linear_solve(no_droppers, model.f_gravity, model.dropper_cw_dof[held], target[held])
+            force = np.where(held, (k @ u - f)[model.dropper_cw_dof], 0.0)
+            pushing = held & (force <= 0)
+            if not np.any(pushing):
+                break
+            if not allow_slack:
+                bad = np.flatnonzero(pushing)
+                first = np.searchsorted(section.dropper_span, section.dropper_span[bad])
+                where = ", ".join(f"span {s + 1} dropper {i + 1}"
+                                  for s, i in zip(section.dropper_span[bad], bad - first))
+                raise NoTautSolutionError(f"target CW profile needs {where} in compression "
+                                 f"(forces {np.round(force[bad], 3).tolist()} N); no taut dropper lengths produce it")
+            slack |= pushing
+        # MW under its weight and the dropper tensions.
+        loads = model.f_gravity.copy()
+        np.add.at(loads, model.dropper_mw_dof, -force)
+        np.add.at(loads, model.dropper_cw_dof, force)
+        u_mw, _, _ = model.linear_solve(no_droppers, loads)
+        stretched = u_mw[model.dropper_mw_dof] - np.where(slack, u[model.dropper_cw_dof], target)
+        if np.any(section.clamp_offset_m):
+            vertical = stretched - force / model.dropper_stiffness_n_m  # fixed point: k_v depends on L
+            new = np.sqrt(vertical ** 2 + section.clamp_offset_m ** 2)
+        else:
+            new = stretched * ea / (ea + force)
+        new = np.where(slack, np.sqrt((stretched + SLACK_MARGIN_M) ** 2 + section.clamp_offset_m ** 2), new)
+        change = np.max(np.abs(new - lengths))
+        lengths = new
+        if change < tolerance_m:
+            break
+    else:
+        raise ConvergenceError(f"dropper lengths did not settle in {max_iterations} passes (last change {change:.3g} m)")
+    return InverseResult(lengths, force, section.with_dropper_lengths(lengths), slack)
+
+
+def nominal_dropper_lengths(span_type: SpanType, catenary: Catenary) -> InverseResult:
+    """Nominal dropper table of ``span_type``: the lengths giving its presag profile on one
+    span at the design tensions and system height, steady arms at the design height."""
+    x = span_type.dropper_positions_m
+    guess = np.full(x.size, span_type.system_height_m)
+    section = single_span(span_type, guess)
+    target = span_type.cw_height_m + presag_deflection_m(span_type, x)
+    return dropper_lengths_for_cw_heights(section, catenary, target)
