@@ -110,10 +110,12 @@ docs: setup
 bench: setup
 	$(BIN)/python benchmarks/run.py
 
-# A 1 000-span line (config/line/) from campaign to diagnosis on $(CORES) cores, in results/line/:
-# wall time per stage and peak memory per job into results/benchmarks.json (benchmarks/line.py).
+# A line of $(SPANS) spans (N2 and N3 sections of 20, config/line/'s laws) from the recording to the
+# report on $(CORES) cores, in results/line_$(SPANS)/, the campaign's simulation timed apart: wall
+# time per stage and peak memory per job into results/benchmarks.json (benchmarks/line.py).
+SPANS ?= 1000
 bench-line: setup
-	$(BIN)/python benchmarks/line.py --cores $(CORES)
+	$(BIN)/python benchmarks/line.py --spans $(SPANS) --cores $(CORES)
 
 # Campaigns of known truth through the whole pipeline (config/validation/): the identification's
 # validation table, the model-form differences and every hidden-effect campaign's diagnosis

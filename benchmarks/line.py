@@ -1,19 +1,30 @@
-"""``make bench-line``: a 1 000-span line end to end on this machine's cores.
+"""``make bench-line SPANS=N``: a line of N spans from the recording to the report, on this machine's cores.
 
-The truth is ``config/line/line_1000_campaign.yaml`` (50 sections of 20 spans, N2 and N3
-alternating, the default campaign's laws); the workflow runs from a fresh results folder
-(``results/line/``, overlay ``config/line/line_1000.yaml``): campaign → ingestion → projection →
-correction → identification → diagnosis of both span types. Into ``results/benchmarks.json``:
+The truth is the 1 000-span line's (``config/line/line_1000_campaign.yaml``: N2 and N3 sections of
+20 spans alternating, the default campaign's laws and measuring car) with N / 20 sections and seed
+N; it is written to ``results/line_<N>/campaign.yaml`` beside the overlay of ``config/config.yaml``
+(``config/line/line_1000.yaml``'s, with this line's folders). The run starts from a fresh
+``results/line_<N>/`` and has two parts, timed apart:
 
-* ``line_1000_spans_wall_s``: the whole run, Snakemake's start-up included;
-* per rule (stage): ``line_1000_spans_<rule>_wall_s``, the summed wall time of its jobs (with
-  2 cores two jobs overlap, so these add up to more than the whole), ``..._longest_job_s``
-  and ``..._peak_rss_mb``, the largest peak memory of one of its jobs (Snakemake's
-  ``benchmark:`` record, the process and its children);
-* ``line_1000_spans_peak_rss_mb``: the largest over every job.
+1. the virtual campaign's simulation (rules ``campaign_section`` and ``campaign``): a user's
+   recording is not simulated;
+2. every stage a user runs, from the recording to ``report.html``: ingestion, registration,
+   projection, correction, inversion, identification, diagnosis, the maintenance posteriors,
+   what fixing buys, the contact-force study, the paper's simulations and the report.
 
-Usage: ``python benchmarks/line.py [--cores N] [--keep]`` (``--keep``: reuse what an earlier
-run left in ``results/line/`` instead of starting afresh).
+Into ``results/benchmarks.json``:
+
+* ``line_<N>_spans_simulation_wall_s``: part 1, Snakemake's start-up included;
+  ``line_<N>_spans_campaign_wall_s``: the campaign rule's job alone (its meaning before);
+* ``line_<N>_spans_user_wall_s``: part 2, recording to report;
+* per rule (stage): ``line_<N>_spans_<rule>_wall_s``, the summed wall time of its jobs (with 2
+  cores two jobs overlap, so these add up to more than the whole), ``..._longest_job_s`` and
+  ``..._peak_rss_mb``, the largest peak memory of one of its jobs (Snakemake's ``benchmark:``
+  record, the process and its children);
+* ``line_<N>_spans_peak_rss_mb``: the largest over every job.
+
+Usage: ``python benchmarks/line.py [--spans N] [--cores C] [--keep]`` (``--keep``: reuse what an
+earlier run left in ``results/line_<N>/`` instead of starting afresh).
 """
 
 from record import ROOT, record  # noqa: I001  (sets one BLAS thread first)
@@ -23,41 +34,77 @@ import shutil
 import subprocess
 import time
 
+import yaml
+
 from cluster_resources import measure
 
-RESULTS = ROOT / "results" / "line"
-OVERLAY = "config/line/line_1000.yaml"
-TARGETS = [f"results/line/{t}/{part}" for t in ("N2", "N3")
-           for part in ("identification/s_opt.csv", "diagnosis/findings.csv")]
-STAGES = ("campaign_section", "campaign", "ingest", "project", "correct_section", "correction", "identify", "diagnose")
+TRUTH = ROOT / "config" / "line" / "line_1000_campaign.yaml"
+OVERLAY = ROOT / "config" / "line" / "line_1000.yaml"
+SECTION_SPANS = 20
+SIMULATION = ("campaign_section", "campaign")
+
+
+def write_line(n_spans: int) -> tuple[str, str]:
+    """The campaign truth and the config overlay of a line of ``n_spans`` spans; their paths
+    relative to the repository."""
+    if n_spans < 2 * SECTION_SPANS or n_spans % SECTION_SPANS:
+        raise SystemExit(f"--spans {n_spans}: expected a multiple of {SECTION_SPANS}, at least {2 * SECTION_SPANS} "
+                         "(N2 and N3 sections of 20 spans alternate)")
+    folder = f"results/line_{n_spans}"
+    truth = yaml.safe_load(TRUTH.read_text())
+    truth["seed"] = n_spans
+    truth["line"]["sections"] = [{"section_id": f"L{k + 1:04d}", "span_type": ("N2", "N3")[k % 2],
+                                  "n_spans": SECTION_SPANS} for k in range(n_spans // SECTION_SPANS)]
+    overlay = yaml.safe_load(OVERLAY.read_text())
+    overlay.update({"results": folder, "campaign": f"{folder}/campaign.yaml",
+                    "recording": f"{folder}/campaign/recording.parquet", "masts": f"{folder}/campaign/masts.csv",
+                    "survey": f"{folder}/campaign/survey.csv"})
+    (ROOT / folder).mkdir(parents=True, exist_ok=True)
+    (ROOT / folder / "campaign.yaml").write_text(yaml.safe_dump(truth, sort_keys=False))
+    (ROOT / folder / "config.yaml").write_text(yaml.safe_dump(overlay, sort_keys=False))
+    return f"{folder}/campaign.yaml", f"{folder}/config.yaml"
+
+
+def snakemake(overlay: str, cores: int, *targets: str, report: str | None = None) -> float:
+    """Run the workflow on ``targets`` (all: none given); its wall time [s]."""
+    exe = ROOT / ".venv" / "bin" / "snakemake"
+    cmd = [str(exe) if exe.exists() else "snakemake", "--workflow-profile", "workflow/profiles/default",
+           "--cores", str(cores), "--configfile", "config/config.yaml", overlay]
+    if report:
+        cmd += ["--report", report, "--report-after-run"]
+    cmd += ["--", *targets] if targets else []
+    print("+", " ".join(cmd), flush=True)
+    start = time.perf_counter()
+    subprocess.run(cmd, cwd=ROOT, check=True)
+    return time.perf_counter() - start
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--spans", type=int, default=1000)
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--keep", action="store_true")
     args = parser.parse_args()
-    if RESULTS.exists() and not args.keep:
-        shutil.rmtree(RESULTS)
-    snakemake = ROOT / ".venv" / "bin" / "snakemake"
-    cmd = [str(snakemake) if snakemake.exists() else "snakemake", "--workflow-profile", "workflow/profiles/default",
-           "--cores", str(args.cores), "--configfile", "config/config.yaml", OVERLAY, "--", *TARGETS]
-    print("+", " ".join(cmd), flush=True)
-    start = time.perf_counter()
-    subprocess.run(cmd, cwd=ROOT, check=True)
-    wall = time.perf_counter() - start
-    per_rule = measure(RESULTS).set_index("rule")
-    figures = {"line_1000_spans_wall_s": wall, "line_1000_spans_peak_rss_mb": float(per_rule["peak_rss_mb"].max())}
-    for rule in STAGES:
-        if rule in per_rule.index:
-            row = per_rule.loc[rule]
-            figures[f"line_1000_spans_{rule}_wall_s"] = float(row["total_wall_s"])
-            figures[f"line_1000_spans_{rule}_longest_job_s"] = float(row["max_wall_s"])
-            figures[f"line_1000_spans_{rule}_peak_rss_mb"] = float(row["peak_rss_mb"])
+    results = ROOT / f"results/line_{args.spans}"
+    if results.exists() and not args.keep:
+        shutil.rmtree(results)
+    _, overlay = write_line(args.spans)
+    key = f"line_{args.spans}_spans"
+    simulation = snakemake(overlay, args.cores, f"results/line_{args.spans}/campaign/recording.parquet")
+    user = snakemake(overlay, args.cores, report=f"results/line_{args.spans}/report.html")
+    per_rule = measure(results).set_index("rule")
+    figures = {f"{key}_simulation_wall_s": simulation, f"{key}_user_wall_s": user,
+               f"{key}_peak_rss_mb": float(per_rule.loc[~per_rule.index.isin(SIMULATION), "peak_rss_mb"].max())}
+    for rule, row in per_rule.iterrows():
+        if rule == "campaign":
+            figures[f"{key}_campaign_wall_s"] = float(row["total_wall_s"])
+        figures[f"{key}_{rule}_wall_s"] = float(row["total_wall_s"])
+        figures[f"{key}_{rule}_longest_job_s"] = float(row["max_wall_s"])
+        figures[f"{key}_{rule}_peak_rss_mb"] = float(row["peak_rss_mb"])
     record(figures)
     print(per_rule.to_string())
-    for key, value in figures.items():
-        print(f"{key}: {value:.4g}")
+    for name, value in figures.items():
+        print(f"{name}: {value:.4g}")
 
 
 if __name__ == "__main__":
