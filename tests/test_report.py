@@ -139,19 +139,26 @@ window.addEventListener('load', function () {
 </script>"""
 
 
+def _rendered(text: str, script: str, pre_id: str, tmp_path, *options: str) -> dict:
+    """The report ``text`` with ``script`` added, opened in headless chromium (``options``): the
+    JSON the script wrote into its ``<pre id=pre_id>``, checked to hold no error."""
+    page = tmp_path / "report.html"
+    end = text.rindex("</body>")
+    page.write_text(text[:end] + script + text[end:], encoding="utf-8")
+    run = subprocess.run(["chromium", "--headless", "--no-sandbox", "--disable-gpu", *options, "--dump-dom",
+                          page.as_uri()], capture_output=True, text=True, timeout=300)
+    found = re.search(rf'<pre id="{pre_id}">(.*?)</pre>', run.stdout, re.S)
+    assert found, run.stderr[-2000:]
+    out = json.loads(html.unescape(found.group(1)))
+    assert out["error"] is None, out["error"]
+    return out
+
+
 @pytest.mark.skipif(shutil.which("chromium") is None,
                     reason="Debian's chromium is not installed (make test-pipeline installs it as root: tests/install_browser.sh)")
 def test_report_renders_in_a_browser_with_every_image(report, tmp_path):
     text, results, _ = report
-    page = tmp_path / "report.html"
-    end = text.rindex("</body>")
-    page.write_text(text[:end] + CHECK + text[end:], encoding="utf-8")
-    run = subprocess.run(["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=60000",
-                          "--dump-dom", page.as_uri()], capture_output=True, text=True, timeout=300)
-    found = re.search(r'<pre id="catenary-check">(.*?)</pre>', run.stdout, re.S)
-    assert found, run.stderr[-2000:]
-    out = json.loads(html.unescape(found.group(1)))
-    assert out["error"] is None, out["error"]
+    out = _rendered(text, CHECK, "catenary-check", tmp_path, "--virtual-time-budget=60000")
     images = [p for p, e in results.items() if e["mime_type"].startswith("image/")]
     assert set(out["images"]) == set(images)
     broken = {p: v for p, v in out["images"].items() if not (isinstance(v, list) and min(v) >= 200)}
@@ -200,16 +207,7 @@ def test_the_front_page_reads_at_1400_px_without_an_element_on_another(report, t
     # verdict, speaks mm and N, and no block (table, paragraph, list, heading, figure, the
     # workflow graph) lies on another that does not hold it.
     text, _, _ = report
-    page = tmp_path / "report.html"
-    end = text.rindex("</body>")
-    page.write_text(text[:end] + LAYOUT + text[end:], encoding="utf-8")
-    run = subprocess.run(["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--window-size=1400,1000",
-                          "--virtual-time-budget=30000", "--dump-dom", page.as_uri()],
-                         capture_output=True, text=True, timeout=300)
-    found = re.search(r'<pre id="catenary-layout">(.*?)</pre>', run.stdout, re.S)
-    assert found, run.stderr[-2000:]
-    out = json.loads(html.unescape(found.group(1)))
-    assert out["error"] is None, out["error"]
+    out = _rendered(text, LAYOUT, "catenary-layout", tmp_path, "--window-size=1400,1000", "--virtual-time-budget=30000")
     assert out["title_top"] >= 0                                     # its top can be read
     front = out["text"]
     for span_type in SPAN_TYPES:

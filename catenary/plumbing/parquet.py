@@ -67,11 +67,22 @@ def unit_of(column: str) -> str:
     >>> unit_of("chainage_m"), unit_of("force_n"), unit_of("speed_kmh"), unit_of("span_id")
     ('m', 'N', 'km/h', '')
     """
+    return unit_suffix(column)[1]
+
+
+def unit_suffix(column: str) -> tuple[str, str]:
+    """The unit suffix of a column's name and its unit (:func:`unit_of`); ``("", "")`` without one.
+
+    Examples
+    --------
+    >>> unit_suffix("stiffness_n_m"), unit_suffix("span_id")
+    (('_n_m', 'N/m'), ('', ''))
+    """
     name = column.lower()
     for suffix, unit in _UNIT_SUFFIXES:
         if name.endswith(suffix) and len(name) > len(suffix):
-            return unit
-    return ""
+            return suffix, unit
+    return "", ""
 
 
 def with_units(schema: pa.Schema) -> pa.Schema:

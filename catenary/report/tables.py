@@ -25,6 +25,7 @@ from pathlib import Path
 import pandas as pd
 
 from catenary.physics.names import CRITERION_LABELS, engineer_input
+from catenary.plumbing.parquet import unit_suffix
 
 __all__ = ["LINE_LENGTHS", "ROW_NAMES", "ROW_VALUES", "engineer_table", "header", "quantity", "write_engineer_table",
            "write_shown"]
@@ -42,18 +43,21 @@ ROW_VALUES = re.compile(
     r"|^(nominal|mean|std|q05|q50|q95|q95_low|q95_high|deviation)$"
     r"|^(median_width|rmse_posterior_mean|rmse_dropper_only|value|en50318_min|en50318_max)$"
     r"|^(planted_magnitude|realized_magnitude|identified)$")
-#: A unit suffix of a column or quantity name: the factor from it to what is shown, and the unit.
-_SUFFIXES = {"_m": (1e3, "mm"), "_mm": (1.0, "mm"), "_cm": (10.0, "mm"), "_n": (1.0, "N"), "_kmh": (1.0, "km/h"),
-             "_s": (1.0, "s"), "_h": (1.0, "h"), "_hz": (1.0, "Hz"), "_percent": (1.0, "%"),
-             "_fraction": (100.0, "%")}
+#: Suffixes the CSV tables use beside those of the Parquet files (:func:`~catenary.plumbing.parquet.unit_suffix`).
+_TABLE_SUFFIXES = (("_percent", "%"), ("_fraction", "fraction"), ("_cm", "cm"), ("_h", "h"))
+#: How a unit is shown, where not as it is: the factor from it and the unit read.
+_SHOWN = {"m": (1e3, "mm"), "cm": (10.0, "mm"), "fraction": (100.0, "%")}
 
 
 def _unit(name: str) -> tuple[str, float, str] | None:
-    """(bare name, factor, unit) of a name ending in a unit suffix; None without one."""
-    for suffix, (factor, unit) in sorted(_SUFFIXES.items(), key=lambda s: -len(s[0])):
-        if name.endswith(suffix) and len(name) > len(suffix):
-            return name[: -len(suffix)], factor, unit
-    return None
+    """(bare name, factor, unit shown) of a name ending in a unit suffix; None without one."""
+    suffix, unit = unit_suffix(name)
+    if not suffix:
+        suffix, unit = next(((s, u) for s, u in _TABLE_SUFFIXES if name.endswith(s) and len(name) > len(s)), ("", ""))
+    if not suffix:
+        return None
+    factor, shown = _SHOWN.get(unit, (1.0, unit))
+    return name[: -len(suffix)], factor, shown
 
 
 def _line_length(column: str, columns) -> bool:
