@@ -64,8 +64,11 @@ def write_line(n_spans: int) -> tuple[str, str]:
                     "recording": f"{folder}/campaign/recording.parquet", "masts": f"{folder}/campaign/masts.csv",
                     "survey": f"{folder}/campaign/survey.csv"})
     (ROOT / folder).mkdir(parents=True, exist_ok=True)
-    (ROOT / folder / "campaign.yaml").write_text(yaml.safe_dump(truth, sort_keys=False))
-    (ROOT / folder / "config.yaml").write_text(yaml.safe_dump(overlay, sort_keys=False))
+    for name, content in (("campaign.yaml", truth), ("config.yaml", overlay)):
+        path = ROOT / folder / name
+        text = yaml.safe_dump(content, sort_keys=False)
+        if not path.exists() or path.read_text() != text:      # kept as it is: a newer file would
+            path.write_text(text)                              # make Snakemake simulate again
     return f"{folder}/campaign.yaml", f"{folder}/config.yaml"
 
 
