@@ -9,7 +9,7 @@ CORES ?= 2
 SMK := $(BIN)/snakemake --workflow-profile workflow/profiles/default
 
 .PHONY: setup cluster-setup run own-data paper unlock default-data test test-pipeline test-slow test-cluster docs \
-	bench bench-line validate clean
+	bench bench-line bench-line-cores validate clean
 
 # Packages go in through uv, pinned, where it installs: it fetches and links wheels in parallel
 # (the venv's packages in 2.4 s, against pip's 36 s: measured 2026-11-26/27). They are then
@@ -116,6 +116,13 @@ bench: setup
 SPANS ?= 1000
 bench-line: setup
 	$(BIN)/python benchmarks/line.py --spans $(SPANS) --cores $(CORES)
+
+# After bench-line: the per-type jobs of that line (identify, diagnose, maintenance) again on
+# 1 core and on 2, their wall times, speed-ups and whether the answers are the same
+# (benchmarks/line_cores.py, into results/benchmarks.json).
+TYPE ?= N2
+bench-line-cores: setup
+	$(BIN)/python benchmarks/line_cores.py --spans $(SPANS) --span-type $(TYPE)
 
 # Campaigns of known truth through the whole pipeline (config/validation/): the identification's
 # validation table, the model-form differences and every hidden-effect campaign's diagnosis

@@ -27,19 +27,25 @@ TIME_MARGIN = 3.0          # a cluster core may be slower than this machine's, a
 
 
 def measure(results: Path) -> pd.DataFrame:
-    """One row per rule: `rule`, `jobs`, `peak_rss_mb`, `max_wall_s`, `total_wall_s`."""
+    """One row per rule: `rule`, `jobs`, `peak_rss_mb`, `peak_pss_mb`, `max_wall_s`, `total_wall_s`.
+
+    A job's RSS is its processes' resident sets summed: a job that forks workers counts the pages
+    they share with it once per process. Its PSS shares each page among the processes that map it
+    (what the kernel's cgroup, and so SLURM, holds the job to is closer to it)."""
     rows = []
     bench = results / "benchmarks"
     for path in sorted(bench.rglob("*.tsv")):
         rel = path.relative_to(bench)
         rule = rel.parts[0] if len(rel.parts) > 1 else rel.stem
         row = pd.read_csv(path, sep="\t").iloc[-1]
-        rows.append({"rule": rule, "s": float(row["s"]), "max_rss": float(row["max_rss"])})
+        rows.append({"rule": rule, "s": float(row["s"]), "max_rss": float(row["max_rss"]),
+                     "max_pss": float(row["max_pss"])})
     if not rows:
         raise SystemExit(f"{bench}: no benchmark files (run the workflow into {results} first)")
     jobs = pd.DataFrame(rows)
     return (jobs.groupby("rule")
-            .agg(jobs=("s", "size"), peak_rss_mb=("max_rss", "max"), max_wall_s=("s", "max"),
+            .agg(jobs=("s", "size"), peak_rss_mb=("max_rss", "max"), peak_pss_mb=("max_pss", "max"),
+                 max_wall_s=("s", "max"),
                  total_wall_s=("s", "sum"))
             .reset_index().round(1))
 

@@ -21,10 +21,14 @@ Into ``results/benchmarks.json``:
   cores two jobs overlap, so these add up to more than the whole), ``..._longest_job_s`` and
   ``..._peak_rss_mb``, the largest peak memory of one of its jobs (Snakemake's ``benchmark:``
   record, the process and its children);
-* ``line_<N>_spans_peak_rss_mb``: the largest over every job.
+* ``line_<N>_spans_peak_rss_mb``: the largest over every job; ``..._peak_pss_mb`` the same of
+  the proportional set size (a job that forks workers counts their shared pages once, not once
+  per process as its RSS does).
 
-Usage: ``python benchmarks/line.py [--spans N] [--cores C] [--keep]`` (``--keep``: reuse what an
-earlier run left in ``results/line_<N>/`` instead of starting afresh).
+Usage: ``python benchmarks/line.py [--spans N] [--cores C] [--keep] [--part both|simulation|user]``
+(``--keep``: reuse what an earlier run left in ``results/line_<N>/`` instead of starting afresh;
+``--part simulation`` runs and records part 1 alone, ``--part user`` part 2 alone on the recording an
+earlier ``--part simulation`` left, so a long line's simulation can run while nothing else is timed).
 """
 
 from record import ROOT, record  # noqa: I001  (sets one BLAS thread first)
@@ -60,8 +64,11 @@ def write_line(n_spans: int) -> tuple[str, str]:
                     "recording": f"{folder}/campaign/recording.parquet", "masts": f"{folder}/campaign/masts.csv",
                     "survey": f"{folder}/campaign/survey.csv"})
     (ROOT / folder).mkdir(parents=True, exist_ok=True)
-    (ROOT / folder / "campaign.yaml").write_text(yaml.safe_dump(truth, sort_keys=False))
-    (ROOT / folder / "config.yaml").write_text(yaml.safe_dump(overlay, sort_keys=False))
+    for name, content in (("campaign.yaml", truth), ("config.yaml", overlay)):
+        path = ROOT / folder / name
+        text = yaml.safe_dump(content, sort_keys=False)
+        if not path.exists() or path.read_text() != text:      # kept as it is: a newer file would
+            path.write_text(text)                              # make Snakemake simulate again
     return f"{folder}/campaign.yaml", f"{folder}/config.yaml"
 
 
@@ -84,23 +91,35 @@ def main() -> None:
     parser.add_argument("--spans", type=int, default=1000)
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--keep", action="store_true")
+    parser.add_argument("--part", choices=("both", "simulation", "user"), default="both")
     args = parser.parse_args()
     results = ROOT / f"results/line_{args.spans}"
-    if results.exists() and not args.keep:
+    recording = f"results/line_{args.spans}/campaign/recording.parquet"
+    if args.part == "user" and not (ROOT / recording).exists():
+        raise SystemExit(f"--part user: {recording} is missing; run --part simulation first")
+    if results.exists() and not args.keep and args.part != "user":
         shutil.rmtree(results)
     _, overlay = write_line(args.spans)
     key = f"line_{args.spans}_spans"
-    simulation = snakemake(overlay, args.cores, f"results/line_{args.spans}/campaign/recording.parquet")
-    user = snakemake(overlay, args.cores, report=f"results/line_{args.spans}/report.html")
+    figures = {}
+    if args.part != "user":
+        figures[f"{key}_simulation_wall_s"] = snakemake(overlay, args.cores, recording)
+    if args.part != "simulation":
+        figures[f"{key}_user_wall_s"] = snakemake(overlay, args.cores, report=f"results/line_{args.spans}/report.html")
     per_rule = measure(results).set_index("rule")
-    figures = {f"{key}_simulation_wall_s": simulation, f"{key}_user_wall_s": user,
-               f"{key}_peak_rss_mb": float(per_rule.loc[~per_rule.index.isin(SIMULATION), "peak_rss_mb"].max())}
+    user_rules = per_rule.loc[~per_rule.index.isin(SIMULATION)]
+    if len(user_rules):
+        figures[f"{key}_peak_rss_mb"] = float(user_rules["peak_rss_mb"].max())
+        figures[f"{key}_peak_pss_mb"] = float(user_rules["peak_pss_mb"].max())
     for rule, row in per_rule.iterrows():
+        if args.part != "both" and (rule in SIMULATION) != (args.part == "simulation"):
+            continue  # the other part's jobs, recorded when that part ran
         if rule == "campaign":
             figures[f"{key}_campaign_wall_s"] = float(row["total_wall_s"])
         figures[f"{key}_{rule}_wall_s"] = float(row["total_wall_s"])
         figures[f"{key}_{rule}_longest_job_s"] = float(row["max_wall_s"])
         figures[f"{key}_{rule}_peak_rss_mb"] = float(row["peak_rss_mb"])
+        figures[f"{key}_{rule}_peak_pss_mb"] = float(row["peak_pss_mb"])
     record(figures)
     print(per_rule.to_string())
     for name, value in figures.items():

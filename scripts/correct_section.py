@@ -23,8 +23,9 @@ pantograph = load_pantographs(snakemake.input.pantographs)[settings.pantograph]
 every = pd.concat([read_table(path).assign(span_type=span_type)
                    for span_type, path in zip(snakemake.params.span_types, snakemake.input.spans)], ignore_index=True)
 spans = every[every["section_id"] == section_id].reset_index(drop=True)
-profiles = pd.concat([read_table(path) for path in snakemake.input.profiles], ignore_index=True)
-profiles = profiles[profiles["span_id"].isin(spans["span_id"])].reset_index(drop=True)
+ids = spans["span_id"].astype(str).tolist()
+profiles = pd.concat([read_table(path, filters=[("span_id", "in", ids)]) for path in snakemake.input.profiles],
+                     ignore_index=True)  # this section's rows only: the job's cost does not grow with the line
 log.info("section %s: %d spans, %s pass, tolerance %.2f mm", section_id, len(spans), settings.mode,
          settings.tolerance_m * 1e3)
 report = pd.read_csv(snakemake.input.report, dtype={"span_id": str, "run_id": str, "section_id": str,

@@ -1,20 +1,28 @@
-"""Rule identify: maximum-likelihood identification of one span type's input laws."""
+"""Rule identify: maximum-likelihood identification of one span type's input laws.
 
-from pathlib import Path
+The profile intervals' ends are searched in ``threads`` worker processes, each with one BLAS
+thread (set here, before NumPy loads; Snakemake sets the job's ``threads``).
+"""
 
-from catenary.measurement.channels.settings import MeasurementSettings
-from catenary.measurement.repeatability import read_noise
-from catenary.physics.config import load_catenary
-from catenary.plumbing.heap import steady_heap
-from catenary.plumbing.logs import rule_logger
-from catenary.plumbing.parquet import read_table, settings_hash
-from catenary.report.tables import write_shown
-from catenary.stages.correction import CorrectionSettings
-from catenary.stages.identification.data import identification_observations, read_corrected
-from catenary.stages.identification.outputs import IdentificationPaths, write_identification
-from catenary.stages.identification.propagation import span_shifts
-from catenary.stages.identification.runner import run_identification
-from catenary.stages.identification.settings import IdentificationSettings
+from catenary.plumbing.blas import one_blas_thread
+
+one_blas_thread(override=True)
+
+from pathlib import Path  # noqa: E402
+
+from catenary.measurement.channels.settings import MeasurementSettings  # noqa: E402
+from catenary.measurement.repeatability import read_noise  # noqa: E402
+from catenary.physics.config import load_catenary  # noqa: E402
+from catenary.plumbing.heap import steady_heap  # noqa: E402
+from catenary.plumbing.logs import rule_logger  # noqa: E402
+from catenary.plumbing.parquet import read_table, settings_hash  # noqa: E402
+from catenary.report.tables import write_shown  # noqa: E402
+from catenary.stages.correction import CorrectionSettings  # noqa: E402
+from catenary.stages.identification.data import identification_observations, read_corrected  # noqa: E402
+from catenary.stages.identification.outputs import IdentificationPaths, write_identification  # noqa: E402
+from catenary.stages.identification.propagation import span_shifts  # noqa: E402
+from catenary.stages.identification.runner import run_identification  # noqa: E402
+from catenary.stages.identification.settings import IdentificationSettings  # noqa: E402
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
@@ -44,7 +52,7 @@ if snakemake.params.model_error_enabled:
 run = run_identification(span_type, catenary, data.w_m, settings, left_out=data.left_out,
                          mast_pairs=data.mast_pairs, log=log, n_runs=data.n_runs,
                          noise_covariance_m2=settings.noise_covariance_m2(span_type.n_droppers, repeatability_m2),
-                         w_shifts=w_shifts, observations=observations)
+                         w_shifts=w_shifts, observations=observations, workers=snakemake.threads)
 out = snakemake.output
 write_identification(run, IdentificationPaths(s_opt=Path(out.s_opt), trace=Path(out.trace),
                                               estimators=Path(out.estimators), normality=Path(out.normality),

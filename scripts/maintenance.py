@@ -1,20 +1,28 @@
-"""Rule maintenance: each span's posterior given its W and the maintenance list, one span type."""
+"""Rule maintenance: each span's posterior given its W and the maintenance list, one span type.
 
-import pandas as pd
+The posteriors and the band's coverages run in ``threads`` worker processes over blocks of spans,
+each with one BLAS thread (set here, before NumPy loads; Snakemake sets the job's ``threads``).
+"""
 
-from catenary.measurement.repeatability import read_noise
-from catenary.physics.config import load_catenary
-from catenary.plumbing.heap import steady_heap
-from catenary.plumbing.logs import rule_logger
-from catenary.plumbing.parquet import read_table, settings_hash
-from catenary.report.tables import write_shown
-from catenary.stages.identification.data import read_corrected
-from catenary.stages.identification.propagation import span_shifts
-from catenary.stages.identification.settings import IdentificationSettings
-from catenary.stages.maintenance.figures import chainage_figure, population_band_figure
-from catenary.stages.maintenance.outputs import write_bands, write_maintenance
-from catenary.stages.maintenance.runner import run_maintenance
-from catenary.stages.maintenance.settings import MaintenanceSettings
+from catenary.plumbing.blas import one_blas_thread
+
+one_blas_thread(override=True)
+
+import pandas as pd  # noqa: E402
+
+from catenary.measurement.repeatability import read_noise  # noqa: E402
+from catenary.physics.config import load_catenary  # noqa: E402
+from catenary.plumbing.heap import steady_heap  # noqa: E402
+from catenary.plumbing.logs import rule_logger  # noqa: E402
+from catenary.plumbing.parquet import read_table, settings_hash  # noqa: E402
+from catenary.report.tables import write_shown  # noqa: E402
+from catenary.stages.identification.data import read_corrected  # noqa: E402
+from catenary.stages.identification.propagation import span_shifts  # noqa: E402
+from catenary.stages.identification.settings import IdentificationSettings  # noqa: E402
+from catenary.stages.maintenance.figures import chainage_figure, population_band_figure  # noqa: E402
+from catenary.stages.maintenance.outputs import write_bands, write_maintenance  # noqa: E402
+from catenary.stages.maintenance.runner import run_maintenance  # noqa: E402
+from catenary.stages.maintenance.settings import MaintenanceSettings  # noqa: E402
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
@@ -37,7 +45,8 @@ spans_check = pd.read_csv(snakemake.input.spans, dtype={"span_id": str, "section
 sections_check = pd.read_csv(snakemake.input.sections, dtype={"section_id": str})
 run = run_maintenance(span_type, catenary, data, corrected, pd.read_csv(snakemake.input.s_opt), identification,
                       settings, one_run_m2=identification.noise_covariance_m2(span_type.n_droppers, repeatability_m2),
-                      w_shifts=w_shifts, spans_check=spans_check, sections_check=sections_check)
+                      w_shifts=w_shifts, spans_check=spans_check, sections_check=sections_check,
+                      workers=snakemake.threads)
 log.info("%s: %d spans, W error %s; posterior in %.1f s", span_type.name, data.w_m.shape[0], run.noise, run.time_s)
 marked = run.posterior.drop_duplicates("span_id").query("status != 'ok'")
 for row in marked.itertuples():

@@ -1,15 +1,23 @@
-"""Rule maintenance_repair: the contact force over the listed spans as measured and repaired."""
+"""Rule maintenance_repair: the contact force over the listed spans as measured and repaired.
 
-import pandas as pd
+The repair windows run in ``threads`` worker processes, each with one BLAS thread (set here,
+before NumPy loads; Snakemake sets the job's ``threads``).
+"""
 
-from catenary.physics.config import load_catenary
-from catenary.physics.pantograph import load_pantographs
-from catenary.plumbing.heap import steady_heap
-from catenary.plumbing.logs import rule_logger
-from catenary.plumbing.parquet import read_table
-from catenary.report.tables import write_shown
-from catenary.stages.contact_force.settings import ContactForceSettings
-from catenary.stages.maintenance.repair import fixing_buys, repair_summary
+from catenary.plumbing.blas import one_blas_thread
+
+one_blas_thread(override=True)
+
+import pandas as pd  # noqa: E402
+
+from catenary.physics.config import load_catenary  # noqa: E402
+from catenary.physics.pantograph import load_pantographs  # noqa: E402
+from catenary.plumbing.heap import steady_heap  # noqa: E402
+from catenary.plumbing.logs import rule_logger  # noqa: E402
+from catenary.plumbing.parquet import read_table  # noqa: E402
+from catenary.report.tables import write_shown  # noqa: E402
+from catenary.stages.contact_force.settings import ContactForceSettings  # noqa: E402
+from catenary.stages.maintenance.repair import fixing_buys, repair_summary  # noqa: E402
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
@@ -19,7 +27,8 @@ span_type = catenary.span_type(snakemake.wildcards.span_type)
 settings = ContactForceSettings.from_mapping(snakemake.params.contact_force)
 pantograph = load_pantographs(snakemake.input.pantographs)[settings.pantograph]
 listed = pd.read_csv(snakemake.input.listed)
-table, skipped = fixing_buys(read_table(snakemake.input.posterior), listed, span_type, catenary, pantograph, settings)
+table, skipped = fixing_buys(read_table(snakemake.input.posterior), listed, span_type, catenary, pantograph, settings,
+                              workers=snakemake.threads)
 summary = repair_summary(table).assign(reason="")
 for section, why in skipped:
     log.warning("section %s: %s", section, why)

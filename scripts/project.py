@@ -1,22 +1,30 @@
-"""Rule project: cut every run into spans along its registered masts and project W at the droppers."""
+"""Rule project: cut every run into spans along its registered masts and project W at the droppers.
 
-from pathlib import Path
+The sections are cut in ``threads`` worker processes, each with one BLAS thread (set here, before
+NumPy loads; Snakemake sets the job's ``threads``).
+"""
 
-import pandas as pd
+from catenary.plumbing.blas import one_blas_thread
 
-from catenary.measurement.projection import ProjectionSettings, project, write_projection
-from catenary.measurement.recording import read_masts, runs_table
-from catenary.measurement.registration import RegistrationSettings
-from catenary.measurement.registration.outputs import read_registration
-from catenary.physics.config import load_catenary
-from catenary.physics.pantograph import load_pantographs
-from catenary.plumbing.errors import InputError
-from catenary.plumbing.heap import steady_heap
-from catenary.plumbing.logs import rule_logger
-from catenary.plumbing.parquet import read_table, settings_hash
-from catenary.report.tables import write_shown
-from catenary.stages.correction import CorrectionSettings
-from catenary.stages.correction import measuring_lag
+one_blas_thread(override=True)
+
+from pathlib import Path  # noqa: E402
+
+import pandas as pd  # noqa: E402
+
+from catenary.measurement.projection import ProjectionSettings, project, write_projection  # noqa: E402
+from catenary.measurement.recording import read_masts, runs_table  # noqa: E402
+from catenary.measurement.registration import RegistrationSettings  # noqa: E402
+from catenary.measurement.registration.outputs import read_registration  # noqa: E402
+from catenary.physics.config import load_catenary  # noqa: E402
+from catenary.physics.pantograph import load_pantographs  # noqa: E402
+from catenary.plumbing.errors import InputError  # noqa: E402
+from catenary.plumbing.heap import steady_heap  # noqa: E402
+from catenary.plumbing.logs import rule_logger  # noqa: E402
+from catenary.plumbing.parquet import read_table, settings_hash  # noqa: E402
+from catenary.report.tables import write_shown  # noqa: E402
+from catenary.stages.correction import CorrectionSettings  # noqa: E402
+from catenary.stages.correction import measuring_lag  # noqa: E402
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
@@ -31,7 +39,7 @@ if RegistrationSettings.from_mapping(snakemake.params.registration).enabled:
     directions = dict(zip(*runs_table(recording)[["run_id", "direction"]].T.to_numpy()))
     registration = read_registration(snakemake.input.registered_masts, snakemake.input.sections, directions)
 result = project(recording, masts, catenary, ProjectionSettings.from_mapping(snakemake.params.projection),
-                 registration, lag)
+                 registration, lag, workers=snakemake.threads)
 log.info("spans: %d used, %d rejected (over %d run(s))", result.n_used, result.n_rejected,
          result.report["run_id"].nunique())
 for row in result.report[result.report["status"] != "used"].itertuples():

@@ -115,7 +115,7 @@ def test_slurm_profile_covers_the_measured_default_run():
 
 def test_slurm_cpus_follow_each_rules_threads():
     # cpus_per_task must equal the rule's `threads` (Snakemake sets the BLAS threads to `threads`;
-    # diagnose resets them to 1 in each of its `threads` processes)
+    # project, identify, diagnose and maintenance reset them to 1 in each of their `threads` processes)
     threads = {}
     for smk in (ROOT / "workflow" / "rules").glob("*.smk"):
         for block in re.split(r"^(?=rule |checkpoint )", smk.read_text(), flags=re.MULTILINE)[1:]:
@@ -123,6 +123,6 @@ def test_slurm_cpus_follow_each_rules_threads():
             found = re.search(r"^    threads: (\d+)", block, flags=re.MULTILINE)
             threads[name] = int(found.group(1)) if found else 1
     asked = cluster_resources.requests()
-    assert threads["diagnose"] == 2
+    assert threads["diagnose"] == threads["maintenance"] == threads["project"] == 2
     for rule, n in threads.items():
         assert asked.get(rule, asked["*"])["cpus_per_task"] == n, rule

@@ -78,6 +78,7 @@ import pyarrow as pa
 
 from catenary.physics.config import Catenary, SpanType
 from catenary.plumbing.parquet import write_table
+from catenary.plumbing.workers import map_blocks
 from .recording import row_label, rows_label, run_samples, validate_masts, validate_recording
 from catenary.measurement.registration.mapping import ChainageMap
 from catenary.measurement.registration.runner import EXTRA, MARGIN_M, NOT_COVERED, REFUSED, UNREGISTERED, RunRegistration, support_kinks, support_line
@@ -463,7 +464,7 @@ def _assign_type(span: _Span, catenary: Catenary, settings: ProjectionSettings) 
 
 def project(recording: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
             settings: ProjectionSettings | None = None, registration: Mapping[str, RunRegistration] | None = None,
-            lag: Callable[[str, float], float] | None = None) -> ProjectionResult:
+            lag: Callable[[str, float], float] | None = None, workers: int = 1) -> ProjectionResult:
     """Cut every run of ``recording`` into spans and project each span's heights (module docs).
 
     Parameters
@@ -484,6 +485,9 @@ def project(recording: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
         ``lag(span_type, speed_kmh)``: where the dynamic pass shows the droppers' kinks, for a
         run towards increasing chainage [m] (:func:`catenary.measurement.registration.lag.height_lag_m`);
         default 0 (a quasi-static pass).
+    workers : int
+        Processes over blocks of sections (:func:`catenary.plumbing.workers.map_blocks`): each
+        section is cut from its own samples, so the result is the same for any number.
 
     Returns
     -------
@@ -519,13 +523,23 @@ def project(recording: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
         by_section: dict[str, list[_Span]] = {}
         for span in spans:
             by_section.setdefault(span.section_id, []).append(span)
-        for section_id, section_spans in by_section.items():
-            frame = _section_samples(samples, maps.get(section_id), run, section_id)
-            source = rec_src if rec["run_id"].nunique() == 1 else f"run {run_id} of {rec_src}"
-            outcomes = [_project_span(span, frame, direction, catenary, settings, lag, source)
-                        for span in section_spans]
-            if settings.check_cuts and frame.chainage_m.size:
-                _check_section_drift(section_spans, outcomes, frame, direction, catenary, settings, lag)
+        sections = list(by_section.items())
+        source = rec_src if rec["run_id"].nunique() == 1 else f"run {run_id} of {rec_src}"
+
+        def block(start: int, stop: int) -> list[list[_Outcome]]:
+            """The outcomes of sections ``start:stop``: each section is cut from its own samples."""
+            out = []
+            for section_id, section_spans in sections[start:stop]:
+                frame = _section_samples(samples, maps.get(section_id), run, section_id)
+                outcomes = [_project_span(span, frame, direction, catenary, settings, lag, source)
+                            for span in section_spans]
+                if settings.check_cuts and frame.chainage_m.size:
+                    _check_section_drift(section_spans, outcomes, frame, direction, catenary, settings, lag)
+                out.append(outcomes)
+            return out
+
+        found = [o for part in map_blocks(block, len(sections), workers, SECTIONS_PER_BLOCK) for o in part]
+        for (section_id, section_spans), outcomes in zip(sections, found):
             for span, outcome in zip(section_spans, outcomes):
                 if outcome.reasons or outcome.span_type is None:
                     report_rows.append(_report_row(span, outcome.span_type, STATUS_REJECTED,
@@ -856,6 +870,12 @@ PROFILE_SCHEMA = pa.schema([pa.field("span_id", pa.string(), nullable=False),
                             pa.field("height_m", pa.float64(), nullable=False)])
 
 
+#: Sections per block of the worker processes of :func:`project`.
+SECTIONS_PER_BLOCK = 2
+#: Rows per row group of ``profiles.parquet``: ≈ 55 spans of ≈ 600 samples.
+PROFILE_ROW_GROUP_ROWS = 1 << 15
+
+
 def _profiles_frame(parts: list[pd.DataFrame]) -> pd.DataFrame:
     if not parts:
         return pd.DataFrame({"span_id": pd.Series(dtype="str"), "run_id": pd.Series(dtype="str"),
@@ -942,8 +962,10 @@ def write_projection(result: ProjectionResult, results_dir: str | Path, *, confi
         write_table(table, path, schema, config_hash=config_hash, kind=f"spans:{name}")
         written.append(path)
         path = results_dir / name / "profiles.parquet"
+        # Row groups of a few dozen spans: a section's correction reads its spans' rows only
+        # (by the groups' span_id statistics), not the whole line's.
         write_table(result.profiles.get(name, _profiles_frame([])), path, PROFILE_SCHEMA, config_hash=config_hash,
-                    kind=f"profiles:{name}")
+                    kind=f"profiles:{name}", row_group_rows=PROFILE_ROW_GROUP_ROWS)
         written.append(path)
     report_path = results_dir / "spans_report.csv"
     report_path.parent.mkdir(parents=True, exist_ok=True)

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from catenary import __version__
@@ -173,7 +174,7 @@ def to_arrow(df: pd.DataFrame, schema: pa.Schema) -> pa.Table:
 
 
 def write_table(df: pd.DataFrame, path: str | Path, schema: pa.Schema, *, config_hash: str, kind: str,
-                extra_metadata: Mapping[str, str] | None = None) -> None:
+                extra_metadata: Mapping[str, str] | None = None, row_group_rows: int = 1 << 20) -> None:
     """Write ``df`` to the Parquet file ``path`` with the explicit Arrow ``schema``.
 
     Parameters
@@ -192,6 +193,9 @@ def write_table(df: pd.DataFrame, path: str | Path, schema: pa.Schema, *, config
         What the table is (``"recording"``, ``"masts"``, ``"spans"``...).
     extra_metadata : mapping of str to str, optional
         Further file-level keys (e.g. the identification's ``status``).
+    row_group_rows : int
+        Rows per row group: smaller groups let a reader that filters (:func:`read_table`'s
+        ``filters``) skip what it does not need, by the groups' statistics.
 
     Notes
     -----
@@ -210,7 +214,7 @@ def write_table(df: pd.DataFrame, path: str | Path, schema: pa.Schema, *, config
             table, tmp,
             compression=_COMPRESSION, compression_level=_COMPRESSION_LEVEL,
             write_statistics=True, use_dictionary=False, version="2.6", data_page_version="1.0",
-            store_schema=True, row_group_size=1 << 20,
+            store_schema=True, row_group_size=row_group_rows,
         )
         os.replace(tmp, path)
     finally:
@@ -231,8 +235,17 @@ def _open(path: str | Path) -> pq.ParquetFile:
                          "(corrupt, truncated, or another format with a .parquet name?)") from None
 
 
-def read_table(path: str | Path) -> pd.DataFrame:
+def read_table(path: str | Path, columns: list[str] | None = None, filters: list[tuple] | None = None) -> pd.DataFrame:
     """Read the Parquet file ``path`` into a DataFrame (default Arrow → pandas conversion).
+
+    Parameters
+    ----------
+    columns : list of str, optional
+        Only these columns (default all).
+    filters : list of tuple, optional
+        Only the rows that pass them, in pyarrow's form (``[("run_id", "=", "r1")]``,
+        ``[("span_id", "in", ids)]``): the row groups whose statistics exclude them are not read,
+        so a job that needs a part of a long file holds that part, not the file.
 
     Raises
     ------
@@ -241,9 +254,23 @@ def read_table(path: str | Path) -> pd.DataFrame:
     """
     pf = _open(path)
     try:
-        return pf.read().to_pandas()
+        if filters is None:
+            return pf.read(columns=columns).to_pandas()
+        return pq.read_table(path, columns=columns, filters=filters, schema=pf.schema_arrow).to_pandas()
     except (pa.ArrowException, OSError, ValueError) as exc:
         raise InputError(f"{path}: corrupt Parquet data ({exc}); expected a readable Parquet file") from None
+
+
+def distinct_values(path: str | Path, column: str) -> list:
+    """The values of ``column`` in the Parquet file ``path``, in order of first appearance (that
+    column alone read)."""
+    pf = _open(path)
+    try:
+        values = pf.read(columns=[column]).column(column)
+        first = {v: pc.index(values, v).as_py() for v in pc.unique(values).to_pylist()}
+    except (pa.ArrowException, OSError, ValueError) as exc:
+        raise InputError(f"{path}: corrupt Parquet data ({exc}); expected a readable Parquet file") from None
+    return sorted(first, key=first.get)
 
 
 def read_metadata(path: str | Path) -> dict[str, str]:

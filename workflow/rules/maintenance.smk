@@ -25,6 +25,9 @@ rule maintenance:
         identification=span_type_settings("identification"),
         maintenance=config.get("maintenance"),
         model_error_enabled=config.get("model_error", {}).get("enabled", False),
+    # The posteriors and the band's coverages in worker processes over blocks of spans (the
+    # answer the same for any number): the per-type serial part of a long line's run.
+    threads: 2
     log:
         f"{RESULTS}/logs/maintenance/{{span_type}}.log",
     benchmark:
@@ -71,6 +74,8 @@ rule maintenance_repair:
         **table("summary", f"{RESULTS}/{{span_type}}/maintenance/repair_summary.csv", "maintenance_repair", MAINTENANCE, "What fixing buys"),
     params:
         contact_force=span_type_settings("contact_force"),
+    # The repair windows' runs in worker processes (the same table for any number).
+    threads: 2
     log:
         f"{RESULTS}/logs/maintenance_repair/{{span_type}}.log",
     benchmark:

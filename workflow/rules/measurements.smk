@@ -152,6 +152,9 @@ checkpoint project:
         span_types=SPAN_TYPES,
     # As ingest: on the chain to the correction.
     priority: 2
+    # The sections cut in worker processes (the same spans for any number): nothing else can
+    # run while the line waits for its spans.
+    threads: 2
     log:
         f"{RESULTS}/logs/project.log",
     benchmark:

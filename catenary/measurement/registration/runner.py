@@ -80,7 +80,7 @@ from .section_fit import fit_section, height_evidence, table_std_from_residuals
 from .settings import RegistrationSettings
 from .supports import LocalFit, Trace, align_pattern, kink_signal, locate_stagger_support, trace_of
 
-__all__ = ["MAST_COLUMNS", "SECTION_COLUMNS", "RunRegistration", "masts_from_trace", "register_run", "support_kinks",
+__all__ = ["MAST_COLUMNS", "REGISTRATION_COLUMNS", "SECTION_COLUMNS", "RunRegistration", "masts_from_trace", "register_run", "support_kinks",
            "support_line", "unregistered_run"]
 
 MATCHED, TABLE_ONLY, MISSING, EXTRA = "matched", "table_only", "missing_from_table", "extra_in_table"
@@ -118,6 +118,12 @@ masts' standard errors)."""
 
 #: Step of the coarse search of each mast [m].
 _COARSE_STEP_M = 0.05
+#: The recording's columns the registration reads (:func:`register_run`, :func:`masts_from_trace`,
+#: :func:`unregistered_run`).
+REGISTRATION_COLUMNS = ["chainage_m", "height_m", "stagger_m", "speed_kmh", "run_id", "direction"]
+#: Beyond a section's expected masts ± the search's reach and two span lengths, the stretch of
+#: kink signals its search reads reaches this much further [m] (more than a kink window).
+_KINK_MARGIN_M = 50.0
 #: Half-widths of the kink signals [m]: height (droppers), height (the span's sag) and stagger
 #: (supports).
 _HEIGHT_KINK_HALF_M, _SAG_KINK_HALF_M, _STAGGER_KINK_HALF_M = 1.0, 8.0, 3.0
@@ -421,15 +427,33 @@ def _coarse_scores(trace: Trace, kinks: tuple[np.ndarray, np.ndarray], predicted
     return scores, offsets
 
 
-def support_kinks(trace: Trace) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+def support_kinks(trace: Trace, low_m: float | None = None,
+                  high_m: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """The kink signals the coarse search reads (:func:`catenary.measurement.registration.supports.kink_signal`)
     on a grid of the run's chainage: (grid, the stagger's, None) when the stagger is recorded,
-    else (grid, the height's at the droppers' scale, the height's at the sag's scale)."""
-    grid = np.arange(trace.chainage_m[0], trace.chainage_m[-1], _COARSE_STEP_M)
+    else (grid, the height's at the droppers' scale, the height's at the sag's scale).
+
+    With ``low_m`` and ``high_m`` the grid is the part of the run's grid between them (the same
+    points): a section's search reads its own stretch, so the memory does not grow with the
+    run. The signals are local (a window of :data:`_SAG_KINK_HALF_M` at most), so inside the
+    stretch, away from its ends by more than that window, they are the whole grid's.
+    """
+    grid = _run_grid(trace.chainage_m[0], trace.chainage_m[-1], low_m, high_m)
     if trace.has_stagger:
         return grid, kink_signal(trace, grid, _STAGGER_KINK_HALF_M, "stagger"), None
     return (grid, kink_signal(trace, grid, _HEIGHT_KINK_HALF_M, "height"),
             kink_signal(trace, grid, _SAG_KINK_HALF_M, "height"))
+
+
+def _run_grid(start_m: float, stop_m: float, low_m: float | None, high_m: float | None) -> np.ndarray:
+    """``np.arange(start_m, stop_m, _COARSE_STEP_M)``, or its points between ``low_m`` and
+    ``high_m``, computed as NumPy computes them (``start + i × δ``, δ its first difference) so
+    that a stretch's points are the whole grid's, bit for bit."""
+    n = max(int(np.ceil((stop_m - start_m) / _COARSE_STEP_M)), 0)
+    lo = 0 if low_m is None else min(max(int(np.floor((low_m - start_m) / _COARSE_STEP_M)), 0), n)
+    hi = n if high_m is None else min(max(int(np.ceil((high_m - start_m) / _COARSE_STEP_M)) + 1, lo), n)
+    delta = (start_m + _COARSE_STEP_M) - start_m
+    return start_m + np.arange(lo, hi) * delta
 
 
 def support_line(trace: Trace, kinks: tuple[np.ndarray, np.ndarray], table_m: np.ndarray, span_types: list,
@@ -657,7 +681,7 @@ def register_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
     sections = _table_sections(masts, catenary, settings)
     if direction < 0:
         sections = sections[::-1]
-    kinks = support_kinks(trace)
+    longest = max(st.length_m for st in catenary.span_types.values())
     current = ChainageMap.identity(sections[0].table_m[0] if sections else 0.0)
     first = True
     mast_rows, section_rows, maps = [], [], {}
@@ -682,6 +706,9 @@ def register_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary,
         lag_m = float(np.mean(list(type_lag.values()))) if type_lag else 0.0
         reach = settings.max_offset_m if first else min(settings.max_offset_m, max(3.0, 2 * settings.search_m))
         tolerance = max(settings.max_residual_m, 0.2, min(_SPREAD_TOLERANCE * sec.spread_m, settings.search_m))
+        # The kink signals of this section's stretch, with room for a span's pattern past each end.
+        margin = reach + 2 * longest + _KINK_MARGIN_M
+        kinks = support_kinks(trace, float(predicted.min()) - margin, float(predicted.max()) + margin)
         slopes = None
         if method == "height" and tolerance > settings.max_residual_m:
             slopes = _chain_slopes(kinks, predicted, reach, sec, catenary, type_lag, scale, settings)
@@ -918,13 +945,15 @@ def masts_from_trace(samples: pd.DataFrame, catenary: Catenary, settings: Regist
     speed = float(samples["speed_kmh"].median()) if samples["speed_kmh"].notna().any() else float("nan")
     types = sorted(catenary.span_types, key=lambda n: catenary.span_types[n].length_m)
     lags = {n: direction * (lag(n, speed) if not trace.has_stagger else 0.0) for n in types}
-    kink_grid, kink, sag = support_kinks(trace)
+    longest = max(catenary.span_types[t].length_m for t in types)
     x = trace.chainage_m[np.isfinite(trace.height_m)]
     breaks = np.flatnonzero(np.diff(x) > settings.section_gap_m)
     stretches = np.split(x, breaks + 1)
     rows = []
     for n, stretch in enumerate(s for s in stretches if s.size and s[-1] - s[0] > min(
             catenary.span_types[t].length_m for t in types)):
+        margin = 2 * longest + _KINK_MARGIN_M          # this stretch's kink signals (support_kinks)
+        kink_grid, kink, sag = support_kinks(trace, stretch[0] - margin, stretch[-1] + margin)
         if trace.has_stagger:
             supports, kinds = _follow(trace, kink_grid, kink, stretch[0], stretch[-1], catenary, types, lags, settings)
         else:

@@ -94,6 +94,10 @@ class Trace:
         return self.chainage_m[a:b][keep], values[keep]
 
 
+#: Samples per block of :func:`despike`'s running median (≈ 10 MB of windows a block).
+_DESPIKE_BLOCK = 1 << 16
+
+
 def despike(values: np.ndarray, floor: float) -> np.ndarray:
     """``values`` with isolated spikes set to NaN: samples further than 4 robust standard
     deviations (1.4826 MAD of the deviations, at least ``floor``) from the running median of
@@ -104,10 +108,14 @@ def despike(values: np.ndarray, floor: float) -> np.ndarray:
         return v.copy()
     padded = np.pad(v, _DESPIKE_HALF, mode="edge")
     windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * _DESPIKE_HALF + 1)
+    median = np.empty(n)
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
         # a window all inside a dropout has no median: its samples are NaN already
         warnings.simplefilter("ignore", RuntimeWarning)
-        median = np.nanmedian(windows, axis=1)
+        # by blocks of samples: each window's median is its own, and the sort's copies of the
+        # windows (21 values a sample, several times) stay the block's size, not the run's
+        for start in range(0, n, _DESPIKE_BLOCK):
+            median[start:start + _DESPIKE_BLOCK] = np.nanmedian(windows[start:start + _DESPIKE_BLOCK], axis=1)
     deviation = v - median
     scale = max(1.4826 * float(np.nanmedian(np.abs(deviation))), floor)
     out = v.copy()

@@ -38,6 +38,8 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import minimize
 
+from catenary.plumbing.workers import map_blocks
+
 from .design import RandomInput
 from .fit import ParameterBox, ScaledProblem
 from .likelihood import Likelihood, LikelihoodValue
@@ -147,7 +149,7 @@ def _profile(problem: ScaledProblem, theta_opt, cov, i, t, lo, hi, max_evaluatio
 def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], result: IdentificationResult, *,
                       parameters: tuple[str, ...] | None = None, box: ParameterBox = ParameterBox(),
                       level: float = 0.95, max_evaluations: int = 400, tolerance: float = 0.05,
-                      max_steps: int = 8, method: str = "fisher-scoring") -> list[ProfileInterval]:
+                      max_steps: int = 8, method: str = "fisher-scoring", workers: int = 1) -> list[ProfileInterval]:
     """Profile-likelihood intervals of every free mean and σ of ``result`` (module docstring).
 
     Parameters
@@ -173,6 +175,9 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
     method : {"fisher-scoring", "nelder-mead"}
         Each re-optimisation of the other coordinates: Fisher scoring, then Nelder–Mead where it
         does not certify its maximum (module docstring), or Nelder–Mead alone.
+    workers : int
+        Processes over the intervals' ends (:func:`catenary.plumbing.workers.map_blocks`): each
+        end is searched from s_opt alone, so the intervals are the same for any number.
 
     Returns
     -------
@@ -195,10 +200,11 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
     critical_base = float(np.sqrt(stats.chi2.ppf(level, 1)))
     inflation = result.variance_widening
     nm = problem.free_mean_idx.size
-    out = []
-    for i, coordinate in enumerate(result.free_parameters):
-        if parameters is not None and coordinate.rsplit(".", 1)[0] not in parameters:
-            continue
+    chosen = [i for i, coordinate in enumerate(result.free_parameters)
+              if parameters is None or coordinate.rsplit(".", 1)[0] in parameters]
+
+    def end(i: int, side: float) -> tuple[float, bool, int]:
+        """One end of coordinate i's interval: (θ_i there, at the box's edge, J evaluations)."""
         first_evaluation = problem.n_evaluations
 
         def root(t):
@@ -208,34 +214,38 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
 
         critical = critical_base * float(np.sqrt(inflation[i]))
         se = float(np.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) and cov[i, i] > 0 else 0.5
-        ends, at_edge = [], []
-        for side in (-1.0, 1.0):
-            edge = lo[i] if side < 0 else hi[i]
-            t_in, r_in = theta_opt[i], 0.0
-            t_out = float(np.clip(theta_opt[i] + side * critical * se, lo[i], hi[i]))
+        edge = lo[i] if side < 0 else hi[i]
+        t_in, r_in = theta_opt[i], 0.0
+        t_out = float(np.clip(theta_opt[i] + side * critical * se, lo[i], hi[i]))
+        r_out = root(t_out)
+        steps = 0
+        while r_out < critical and t_out != edge and steps < max_steps:
+            t_in, r_in = t_out, r_out
+            t_out = float(np.clip(theta_opt[i] + 1.6 * (t_out - theta_opt[i]), lo[i], hi[i]))
             r_out = root(t_out)
-            steps = 0
-            while r_out < critical and t_out != edge and steps < max_steps:
-                t_in, r_in = t_out, r_out
-                t_out = float(np.clip(theta_opt[i] + 1.6 * (t_out - theta_opt[i]), lo[i], hi[i]))
-                r_out = root(t_out)
-                steps += 1
-            if r_out < critical:                 # still inside at the box edge (or out of steps)
-                ends.append(t_out)
-                at_edge.append(t_out == edge)
-                continue
-            for _ in range(max_steps):           # secant on r(t) − critical, kept in the bracket
-                t_new = t_in + (critical - r_in) * (t_out - t_in) / (r_out - r_in)
-                if abs(t_new - t_in) < tolerance * se or abs(t_out - t_new) < tolerance * se:
-                    t_in = t_new
-                    break
-                r_new = root(t_new)
-                if r_new < critical:
-                    t_in, r_in = t_new, r_new
-                else:
-                    t_out, r_out = t_new, r_new
-            ends.append(t_in)
-            at_edge.append(False)
+            steps += 1
+        if r_out < critical:                 # still inside at the box edge (or out of steps)
+            return t_out, t_out == edge, problem.n_evaluations - first_evaluation
+        for _ in range(max_steps):           # secant on r(t) − critical, kept in the bracket
+            t_new = t_in + (critical - r_in) * (t_out - t_in) / (r_out - r_in)
+            if abs(t_new - t_in) < tolerance * se or abs(t_out - t_new) < tolerance * se:
+                t_in = t_new
+                break
+            r_new = root(t_new)
+            if r_new < critical:
+                t_in, r_in = t_new, r_new
+            else:
+                t_out, r_out = t_new, r_new
+        return t_in, False, problem.n_evaluations - first_evaluation
+
+    # Every end is its own search from s_opt: in worker processes, the same ends in any number.
+    tasks = [(i, side) for i in chosen for side in (-1.0, 1.0)]
+    found = [r for block in map_blocks(lambda a, b: [end(*tasks[k]) for k in range(a, b)], len(tasks), workers, 1)
+             for r in block]
+    out = []
+    for n_chosen, i in enumerate(chosen):
+        (low, low_edge, n_low), (high, high_edge, n_high) = found[2 * n_chosen], found[2 * n_chosen + 1]
+        ends, at_edge = [low, high], [low_edge, high_edge]
         if i < nm:
             k = problem.free_mean_idx[i]
             values = [problem.mu0[k] + problem.mean_scale[k] * t for t in (theta_opt[i], *ends)]
@@ -249,5 +259,5 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
         out.append(ProfileInterval(parameter=start[k].name, statistic=statistic, estimate=float(values[0]),
                                    low=float(values[1]), high=float(values[2]), low_at_boundary=at_edge[0],
                                    high_at_boundary=at_edge[1],
-                                   n_evaluations=problem.n_evaluations - first_evaluation))
+                                   n_evaluations=n_low + n_high))
     return out

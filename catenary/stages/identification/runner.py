@@ -372,7 +372,7 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
                        mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None,
                        noise_covariance_m2: np.ndarray | None = None,
                        n_runs: np.ndarray | None = None,
-                       w_shifts: SpanShifts | None = None, observations=None) -> IdentificationRun:
+                       w_shifts: SpanShifts | None = None, observations=None, workers: int = 1) -> IdentificationRun:
     """Identify the input laws of ``span_type`` from measured deflections and build every output.
 
     Parameters
@@ -403,6 +403,8 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
         Measurements besides W of the random inputs (a tension in a span, ΔH at a mast), row by
         row with ``data_w_m`` (:class:`catenary.measurement.channels.observations.Observations`; Gaussian
         estimator): J reads them jointly with W.
+    workers : int
+        Processes for the profile intervals' ends (the same intervals for any number).
 
     Returns
     -------
@@ -430,7 +432,7 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
         log.warning("%s: no profile intervals (status %s)", span_type.name, result.status)
     elif profiled:
         profiles = profile_intervals(lik, start, result, parameters=profiled, level=s.profile_level,
-                                     max_evaluations=s.profile_max_evaluations)
+                                     max_evaluations=s.profile_max_evaluations, workers=workers)
     profile_time = time.perf_counter() - t_profile
     for p in profiles:
         log.info("%s: %s %s = %.6g, %.0f %% profile interval [%.6g, %.6g]%s (%d evaluations)", span_type.name,

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from catenary.plumbing.workers import map_blocks
 from .prior import SpanPrior, output_names
 
 __all__ = ["MIN_EFFECTIVE_FRACTION", "Posterior", "global_modes", "posterior_modes", "span_posteriors",
@@ -55,6 +56,10 @@ MIN_EFFECTIVE_FRACTION = 0.05
 #: at 1 − this is marked: no taut span of the model explains its W (a slack dropper, a fault
 #: the fast model cannot carry, or an effect it does not have).
 MISFIT_LEVEL = 1e-3
+#: Spans per block of :func:`span_posteriors` (its unit of work for the worker processes): enough
+#: rows for the vectorised Gauss–Newton (128 spans × 10 starts × 22 Jacobian points) and few
+#: enough that 2 workers share the 500 spans of a 1 000-span line's span type evenly.
+BLOCK_SPANS = 128
 #: Central-difference step of the Jacobian in normal scores (W is linear in z to 1e-3 of its
 #: change over this step: the inputs move by 1e-3 of their σ).
 JACOBIAN_STEP = 1e-3
@@ -198,28 +203,35 @@ def posterior_modes(prior: SpanPrior, w_obs: np.ndarray, l_inv: np.ndarray, *, s
     converged = np.zeros(k, dtype=bool)
     eye = np.eye(d)
     for _ in range(max_iterations):
-        jw = _jacobian(prior, z, l_inv)
-        lam = prior.neg_log_prior(z)[1]
+        # Only the spans still moving are evaluated: a span's iterations are its own, so the cost
+        # is the sum of the spans' iterations, not the slowest span's times every span.
+        a = np.flatnonzero(~converged)
+        if a.size == 0:
+            break
+        za, ra = z[a], r[a]
+        jw = _jacobian(prior, za, l_inv[a])
+        lam = prior.neg_log_prior(za)[1]
         precision = lam[:, :, None] * eye + np.einsum("kid,kie->kde", jw, jw)
-        gradient = np.einsum("kid,ki->kd", jw, r) - lam * z                                    # −∇φ
+        gradient = np.einsum("kid,ki->kd", jw, ra) - lam * za                                  # −∇φ
         step = np.linalg.solve(precision, gradient[:, :, None])[:, :, 0]
-        active = ~converged
-        scale = np.ones(k)
-        floor = 1e-10 * (1.0 + np.abs(phi))                                                     # rounding of φ
+        scale = np.ones(a.size)
+        floor = 1e-10 * (1.0 + np.abs(phi[a]))                                                  # rounding of φ
         for _ in range(20):                                                                     # halve until φ falls
-            trial = z + scale[:, None] * step
-            r_t, bad_t = _whitened(prior, trial, w_obs, l_inv)
+            trial = za + scale[:, None] * step
+            r_t, bad_t = _whitened(prior, trial, w_obs[a], l_inv[a])
             phi_t = _objective(prior, trial, r_t, bad_t)
-            worse = active & ~(phi_t <= phi + floor)
+            worse = ~(phi_t <= phi[a] + floor)
             if not worse.any():
                 break
             scale[worse] *= 0.5
-        moved = active & (phi_t <= phi + floor)
+        moved = phi_t <= phi[a] + floor
         small = np.max(np.abs(scale[:, None] * step), axis=1) < tolerance
-        converged |= active & (small | ~moved)
-        z[moved], r[moved], phi[moved] = trial[moved], r_t[moved], phi_t[moved]
-        if converged.all():
-            break
+        converged[a] = small | ~moved
+        z[a[moved]], r[a[moved]], phi[a[moved]] = trial[moved], r_t[moved], phi_t[moved]
+    # The Laplace precision at the mode itself.
+    jw = _jacobian(prior, z, l_inv)
+    lam = prior.neg_log_prior(z)[1]
+    precision = lam[:, :, None] * eye + np.einsum("kid,kie->kde", jw, jw)
     return z, precision, phi, converged
 
 
@@ -262,7 +274,8 @@ def global_modes(prior: SpanPrior, w_obs: np.ndarray, l_inv: np.ndarray
 
 def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np.ndarray, *,
                     lower: np.ndarray | None = None, upper: np.ndarray | None = None, n_samples: int = 4000,
-                    seed: int = 0, df: float = 6.0, chunk_spans: int = 16, n_draws: int = 0) -> Posterior:
+                    seed: int = 0, df: float = 6.0, chunk_spans: int = 16, n_draws: int = 0,
+                    workers: int = 1, block_spans: int = BLOCK_SPANS) -> Posterior:
     """The posterior of each span's inputs given its W (module docstring).
 
     Parameters
@@ -287,6 +300,12 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
         Equally weighted draws to keep per span (``Posterior.draws_z``; 0: none): the weighted
         draws resampled systematically (one uniform per span from ``seed + 1``), so that a draw
         of weight w appears about ``w · n_draws`` times.
+    workers : int
+        Processes over blocks of spans (:func:`catenary.plumbing.workers.map_blocks`). Each
+        span's posterior is its own (its mode, its proposal, the shared standard draws) and the
+        blocks are the same for any number of workers, so is the result, bit for bit.
+    block_spans : int
+        Spans per block (the modes are found for a block's spans at once).
 
     Returns
     -------
@@ -302,6 +321,29 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
     q = d + n
     lower = np.full(q, np.nan) if lower is None else np.asarray(lower, dtype=float)
     upper = np.full(q, np.nan) if upper is None else np.asarray(upper, dtype=float)
+    rng = np.random.default_rng(seed)
+    t = rng.standard_normal((n_samples, d)) * np.sqrt(df / rng.chisquare(df, n_samples))[:, None]
+    offsets = np.random.default_rng(seed + 1).random(k)
+
+    def block(start: int, stop: int) -> dict:
+        sl = slice(start, stop)
+        return _block_posteriors(prior, w_obs[sl], l_inv[sl], lower, upper, t, df, chunk_spans, n_draws, offsets[sl])
+
+    parts = map_blocks(block, k, workers, block_spans)
+    out = {name: np.concatenate([p[name] for p in parts]) for name in parts[0] if parts[0][name] is not None}
+    return Posterior(output_names(n, prior.system_height_mode), out["mean"], out["q05"], out["q95"],
+                     out["p_outside"], out["mode_z"], out["mode_converged"], out["effective_samples"], n_samples,
+                     out["misfit_p_value"], out.get("draws_z"))
+
+
+def _block_posteriors(prior: SpanPrior, w_obs: np.ndarray, l_inv: np.ndarray, lower: np.ndarray,
+                      upper: np.ndarray, t: np.ndarray, df: float, chunk_spans: int, n_draws: int,
+                      offsets: np.ndarray) -> dict:
+    """:func:`span_posteriors` of a block of spans (``l_inv`` the inverse Cholesky factors of their
+    noise, ``t`` the shared standard Student-t draws, ``offsets`` the spans' resampling uniforms)."""
+    k, n = w_obs.shape
+    n_samples, d = t.shape
+    q = d + n
     z_hat, precision, converged, (z0, precision0) = global_modes(prior, w_obs, l_inv)
     # The proposal: a Student t on the Laplace approximation at the mode; with a fault component
     # in the prior, half the draws around the mode without it too (the posterior may hold both).
@@ -309,8 +351,6 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
     if prior.fault_probability > 0:
         centres.append(z0)
         chols.append(np.linalg.cholesky(np.linalg.inv(precision0)))
-    rng = np.random.default_rng(seed)
-    t = rng.standard_normal((n_samples, d)) * np.sqrt(df / rng.chisquare(df, n_samples))[:, None]
     part = np.arange(n_samples) * len(centres) // n_samples                # draw s from component part[s]
     mean = np.empty((k, q))
     q05 = np.empty((k, q))
@@ -319,7 +359,6 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
     ess = np.empty(k)
     limited = np.isfinite(lower) | np.isfinite(upper)
     draws = np.empty((k, n_draws, d)) if n_draws > 0 else None
-    offsets = np.random.default_rng(seed + 1).random(k)
     for start in range(0, k, chunk_spans):
         sl = slice(start, min(start + chunk_spans, k))
         m = sl.stop - sl.start
@@ -351,8 +390,8 @@ def span_posteriors(prior: SpanPrior, w_obs: np.ndarray, noise_covariance_m2: np
             p_out[sl] = np.where(limited, np.einsum("ks,ksd->kd", w, outside.astype(float)), np.nan)
     r_hat, _ = _whitened(prior, z_hat, w_obs, l_inv)
     misfit = stats.chi2.sf(np.sum(r_hat * r_hat, axis=1), n)
-    return Posterior(output_names(n, prior.system_height_mode), mean, q05, q95, p_out, z_hat, converged, ess,
-                     n_samples, misfit, draws)
+    return {"mean": mean, "q05": q05, "q95": q95, "p_outside": p_out, "mode_z": z_hat, "mode_converged": converged,
+            "effective_samples": ess, "misfit_p_value": misfit, "draws_z": draws}
 
 
 def _resample(z: np.ndarray, w: np.ndarray, offsets: np.ndarray, n_draws: int) -> np.ndarray:

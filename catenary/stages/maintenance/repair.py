@@ -31,11 +31,15 @@ import pandas as pd
 from catenary.physics.config import Catenary, SpanType
 from catenary.physics.effects import SpanParameters
 from catenary.physics.pantograph import Pantograph
+from catenary.plumbing.workers import map_blocks
 from catenary.stages.contact_force.draws import build_section
 from catenary.stages.contact_force.runs import CRITERIA, run_section
 from catenary.stages.contact_force.settings import ContactForceSettings
 
 __all__ = ["REPAIR_COLUMNS", "RepairWindow", "fixing_buys", "repair_windows", "window_parameters"]
+
+#: Repair windows per block of the worker processes of :func:`fixing_buys`.
+WINDOWS_PER_BLOCK = 4
 
 #: Columns of ``repair.csv``: one row per window, speed and state (``as_measured``, ``repaired``).
 REPAIR_COLUMNS = ("section_id", "first_span_id", "last_span_id", "listed", "speed_kmh", "state", *CRITERIA,
@@ -133,9 +137,15 @@ def _margins(row: dict, settings: ContactForceSettings) -> dict:
 
 
 def fixing_buys(posterior: pd.DataFrame, listed: pd.DataFrame, span_type: SpanType, catenary: Catenary,
-                pantograph: Pantograph, settings: ContactForceSettings
+                pantograph: Pantograph, settings: ContactForceSettings, workers: int = 1
                 ) -> tuple[pd.DataFrame, list[tuple[str, str]]]:
     """The contact force over each repair window as measured and repaired (module docstring).
+
+    Parameters
+    ----------
+    workers : int
+        Processes over the windows (:func:`catenary.plumbing.workers.map_blocks`): each window's
+        runs are its own, so the table is the same for any number.
 
     Returns
     -------
@@ -145,17 +155,22 @@ def fixing_buys(posterior: pd.DataFrame, listed: pd.DataFrame, span_type: SpanTy
         Sections holding listed droppers that no window fits, with the reason.
     """
     windows, skipped = repair_windows(posterior, listed, settings.n_spans, settings.analysis_masts)
-    rows = []
-    for window in windows:
-        label = ";".join(f"{s}:{i + 1}" for s, i in window.droppers)
-        for state in ("as_measured", "repaired"):
-            section = build_section(window_parameters(posterior, window, span_type, state == "repaired"), span_type,
-                                    catenary)
-            _, runs = run_section(section, catenary, pantograph, settings, settings.speeds_kmh)
-            for run in runs:
-                rows.append({"section_id": window.section_id, "first_span_id": window.span_ids[0],
-                             "last_span_id": window.span_ids[-1], "listed": label, "state": state,
-                             **{c: run[c] for c in ("speed_kmh", *CRITERIA)}, **_margins(run, settings)})
+
+    def block(start: int, stop: int) -> list[dict]:
+        rows = []
+        for window in windows[start:stop]:
+            label = ";".join(f"{s}:{i + 1}" for s, i in window.droppers)
+            for state in ("as_measured", "repaired"):
+                section = build_section(window_parameters(posterior, window, span_type, state == "repaired"),
+                                        span_type, catenary)
+                _, runs = run_section(section, catenary, pantograph, settings, settings.speeds_kmh)
+                for run in runs:
+                    rows.append({"section_id": window.section_id, "first_span_id": window.span_ids[0],
+                                 "last_span_id": window.span_ids[-1], "listed": label, "state": state,
+                                 **{c: run[c] for c in ("speed_kmh", *CRITERIA)}, **_margins(run, settings)})
+        return rows
+
+    rows = [row for part in map_blocks(block, len(windows), workers, WINDOWS_PER_BLOCK) for row in part]
     return pd.DataFrame(rows, columns=list(REPAIR_COLUMNS)), skipped
 
 

@@ -121,7 +121,7 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
                     s_opt: pd.DataFrame, identification: IdentificationSettings, settings: MaintenanceSettings, *,
                     one_run_m2: np.ndarray | None = None, w_shifts: SpanShifts | None = None,
                     spans_check: pd.DataFrame | None = None,
-                    sections_check: pd.DataFrame | None = None) -> MaintenanceRun:
+                    sections_check: pd.DataFrame | None = None, workers: int = 1) -> MaintenanceRun:
     """Posterior per span and input, and the maintenance list, for one span type.
 
     Parameters
@@ -142,6 +142,9 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
         whose spans share a T_MW offset has its spans' posteriors drawn from the laws with that
         offset (its device, not their droppers, is what is wrong), and the list acts on what the
         model does not explain (:func:`maintenance_list`).
+    workers : int
+        Processes over blocks of spans (the posteriors and the band's coverages); the result does
+        not depend on them.
     """
     t0 = time.perf_counter()
     prior = prior_from_s_opt(span_type, catenary, s_opt, identification,
@@ -156,7 +159,7 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
     nominal_inputs = np.r_[nominal_inputs, nominal_dropper_lengths(span_type, catenary).dropper_force_n]
     lower, upper = tolerance_limits(output_names(n, prior.system_height_mode), nominal_inputs, settings)
     post = span_posteriors(prior, data.w_m, cov, lower=lower, upper=upper, n_samples=settings.n_samples,
-                           seed=settings.seed, n_draws=settings.band_draws_per_span)
+                           seed=settings.seed, n_draws=settings.band_draws_per_span, workers=workers)
     for section, offset in tension_offsets(sections_check).items():
         rows = np.flatnonzero(span_places(corrected, data.span_id)["section_id"].to_numpy() == section)
         if rows.size == 0:
@@ -168,14 +171,15 @@ def run_maintenance(span_type: SpanType, catenary: Catenary, data: CorrectedData
                                                  fault_std_m=settings.fault_std_m,
                                                  law_uncertainty=settings.law_uncertainty),
                                 data.w_m[rows], cov[rows], lower=lower, upper=upper, n_samples=settings.n_samples,
-                                seed=settings.seed, n_draws=settings.band_draws_per_span)
+                                seed=settings.seed, n_draws=settings.band_draws_per_span, workers=workers)
         post = post.with_rows(rows, group)
     bands = None
     if settings.band_draws_per_span > 0:
         bands = population_bands(prior, post.draws_z, data.w_m, cov,
                                  x_m=band_abscissae(span_type, identification.band_n_points),
                                  level=identification.band_level, n_prior_samples=identification.band_n_samples,
-                                 design_method=identification.design, seed=identification.seed + 1)
+                                 design_method=identification.design, seed=identification.seed + 1,
+                                 workers=workers)
     places = span_places(corrected, data.span_id)
     k, d = post.mean.shape
     table = pd.DataFrame({

@@ -1,0 +1,212 @@
+"""A job uses the cores it is given, and gives the same answer with any number of them; a stage's
+memory does not grow with the line (issue [18]).
+
+Worker processes over blocks of spans (catenary.plumbing.workers) must give the same result, bit
+for bit, as one process: the posteriors, the band's coverages, the profile intervals' ends. The
+parts a long line made large are computed by stretches or blocks that must give what the whole
+gave: the registration's kink signals per section, the despiking's running median by blocks,
+a section's profiles read by the file's row groups."""
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+from catenary.measurement.projection import PROFILE_SCHEMA
+from catenary.measurement.registration import runner as registration
+from catenary.measurement.registration import supports
+from catenary.plumbing.parquet import distinct_values, read_table, write_table
+from catenary.plumbing.workers import map_blocks
+from catenary.stages.identification.fit import identify, make_likelihood
+from catenary.stages.identification.profile import profile_intervals
+from catenary.stages.identification.synthetic import simulate_deflections
+from catenary.stages.maintenance import population
+from catenary.stages.maintenance.posterior import span_posteriors
+
+from .test_identification_profile import MODE, _laws, start  # noqa: F401  (fixture)
+from .test_maintenance import NOISE_M, _spans_from_prior, table2_prior  # noqa: F401  (fixture)
+
+
+def test_map_blocks_covers_every_item_once_in_order_whatever_the_workers():
+    # Blocks of a fixed size, the last shorter, in order; the same with 1 and 2 workers; an
+    # empty range still calls the function once (a stage's empty result keeps its shape).
+    def bounds(a, b):
+        return [(a, b)]
+    assert map_blocks(bounds, 10, 1, 4) == map_blocks(bounds, 10, 2, 4) == [[(0, 4)], [(4, 8)], [(8, 10)]]
+    assert map_blocks(bounds, 0, 2, 4) == [[(0, 0)]]
+
+
+def test_span_posteriors_are_the_same_bit_for_bit_with_two_workers(table2_prior):
+    # 40 spans in blocks of 16 (three blocks, two workers), each span with its own error
+    # covariance, the laws' uncertainty and a fault component: every number of every span the
+    # same as in one process — a span's mode, proposal and weights are its own.
+    prior = dataclasses.replace(table2_prior, fault_probability=0.01, fault_std_m=0.03,
+                                mean_uncertainties=0.002 * table2_prior.means,
+                                sigma_uncertainties=0.1 * table2_prior.sigmas)
+    _, w = _spans_from_prior(prior, 40, seed=21)
+    b = 3e-4 * np.random.default_rng(22).standard_normal((40, 9, 2))
+    cov = NOISE_M**2 * np.eye(9) + np.einsum("kia,kja->kij", b, b)
+    one = span_posteriors(prior, w, cov, n_samples=300, seed=5, n_draws=8, workers=1, block_spans=16)
+    two = span_posteriors(prior, w, cov, n_samples=300, seed=5, n_draws=8, workers=2, block_spans=16)
+    for name in ("mean", "q05", "q95", "mode_z", "mode_converged", "effective_samples", "misfit_p_value", "draws_z"):
+        assert np.array_equal(getattr(one, name), getattr(two, name), equal_nan=True), name
+
+
+def test_leave_one_out_from_a_capped_pool_keeps_the_nominal_coverage(monkeypatch):
+    # The others' draws capped (here at 2 000 of 19 950, as 40 000 caps a long line's): each span
+    # checked against its own random pick of them is still one more draw of the pooled law, so it
+    # falls inside the 5–95 % band at 0.90 (binomial standard error over 400 spans × 3 columns
+    # 0.87 %; the cap's quantiles from 2 000 draws add ≈ 0.5 %: tolerance 4 standard errors of
+    # both). Workers change nothing.
+    monkeypatch.setattr(population, "LOO_POOL_DRAWS", 2000)
+    rng = np.random.default_rng(1)
+    k, m, n = 400, 50, 3
+    draws, w = rng.standard_normal((k, m, n)), rng.standard_normal((k, n))
+    chol = np.broadcast_to(1e-12 * np.eye(n), (k, n, n))
+    inside = population.leave_one_out_inside(draws, w, chol, 0.9, seed=2)
+    assert abs(inside.mean() - 0.9) < 4 * np.hypot(np.sqrt(0.9 * 0.1 / (k * n)), 0.005)
+    assert np.array_equal(inside, population.leave_one_out_inside(draws, w, chol, 0.9, seed=2, workers=2))
+
+
+def test_a_left_out_span_never_sees_its_own_draws_in_a_capped_pool(monkeypatch):
+    # Span j's draws all equal j and its W too: the pool each span is checked against (picked
+    # from the others' draws past the cap) holds every other span's values and never its own.
+    monkeypatch.setattr(population, "LOO_POOL_DRAWS", 400)
+    k, m, n = 30, 20, 2
+    draws = np.repeat(np.arange(k, dtype=float)[:, None, None], m, axis=1) * np.ones((1, 1, n))
+    w = np.arange(k, dtype=float)[:, None] * np.ones((1, n))
+    seen = []
+
+    def record(pooled, w_left_out, level):
+        seen.append((w_left_out[0], np.unique(np.round(pooled[:, 0]))))
+        return np.zeros(w_left_out.shape, dtype=bool)
+
+    monkeypatch.setattr(population, "_inside", record)
+    population.leave_one_out_inside(draws, w, np.broadcast_to(1e-12 * np.eye(n), (k, n, n)), 0.5, seed=3)
+    assert len(seen) == k
+    for own, pool in seen:
+        assert own not in pool and pool.size == k - 1     # 400 picks of 29 spans: each drawn (P ≈ 1 − 29 e^-14)
+
+
+def test_a_stretch_of_the_run_grid_is_the_whole_grids_points_bit_for_bit():
+    # np.arange's points (start + i δ), so that a section's kink signals sit where the whole
+    # run's did.
+    for start, stop in ((1234.5678, 180_000.123), (-37.11, 61_234.9)):
+        whole = np.arange(start, stop, registration._COARSE_STEP_M)
+        assert np.array_equal(registration._run_grid(start, stop, None, None), whole)
+        part = registration._run_grid(start, stop, 5000.0, 9000.0)
+        i = np.searchsorted(whole, part[0])
+        assert np.array_equal(part, whole[i:i + part.size]) and part[0] <= 5000.0 and part[-1] >= 9000.0
+
+
+def _trace(seed=4, length_m=3000.0):
+    """A height trace with dropper-like kinks every 6 m, a stagger-free run."""
+    rng = np.random.default_rng(seed)
+    x = np.sort(rng.uniform(0.0, length_m, int(length_m / 0.1)))
+    h = 5.3 + 0.02 * np.abs(((x / 6.0) % 1.0) - 0.5) + 2e-4 * rng.standard_normal(x.size)
+    h[rng.choice(x.size, 20, replace=False)] += 0.05        # spikes for the despiking
+    return supports.trace_of(x, h)
+
+
+def test_kink_signals_of_a_stretch_are_the_whole_runs_inside_it():
+    # The signals are local (a window of 8 m at most): away from a stretch's ends by more than
+    # that, its values are the whole grid's, to the rounding of the grid step's median (one ulp
+    # of a 0.05 m step moves a slope by ≈ 1e-15 of itself).
+    trace = _trace()
+    grid, fine, sag = registration.support_kinks(trace)
+    part_grid, part_fine, part_sag = registration.support_kinks(trace, 1000.0, 2000.0)
+    i = np.searchsorted(grid, part_grid[0])
+    inner = (part_grid > 1000.0 + 10.0) & (part_grid < 2000.0 - 10.0)
+    for whole, part in ((fine, part_fine), (sag, part_sag)):
+        a, b = whole[i:i + part_grid.size][inner], part[inner]
+        assert np.all(np.isfinite(a) == np.isfinite(b))
+        assert np.allclose(a, b, rtol=1e-12, atol=1e-14, equal_nan=True)
+
+
+def test_despiking_by_blocks_is_the_despiking_of_the_whole(monkeypatch):
+    # Each sample's running median is its own window's: blocks of 1 000 samples give what one
+    # block of all 30 000 gave, bit for bit.
+    rng = np.random.default_rng(6)
+    v = np.cumsum(1e-3 * rng.standard_normal(30_000))
+    v[rng.choice(v.size, 50, replace=False)] += 0.1
+    v[100:140] = np.nan                                       # a dropout
+    whole = supports.despike(v, 5e-4)
+    monkeypatch.setattr(supports, "_DESPIKE_BLOCK", 1000)
+    assert np.array_equal(supports.despike(v, 5e-4), whole, equal_nan=True)
+
+
+def test_a_sections_profiles_read_by_row_groups_are_its_rows_of_the_whole_file(tmp_path):
+    # Profiles of 300 spans of 200 samples in row groups of 4 096 rows: the rows of 20 spans read
+    # through the groups' statistics are those of the whole file, in its order; the run ids of a
+    # recording come in order of first appearance.
+    ids = [f"M{k:04d}-M{k + 1:04d}" for k in range(300)]
+    frame = pd.DataFrame({"span_id": np.repeat(ids, 200), "run_id": "r1", "x_m": np.tile(np.linspace(0, 60, 200), 300),
+                          "height_m": np.random.default_rng(7).normal(5.3, 0.01, 60_000)})
+    path = tmp_path / "profiles.parquet"
+    write_table(frame, path, PROFILE_SCHEMA, config_hash="x", kind="profiles", row_group_rows=4096)
+    wanted = ids[140:160]
+    part = read_table(path, filters=[("span_id", "in", wanted)])
+    expected = frame[frame["span_id"].isin(wanted)].reset_index(drop=True)
+    pd.testing.assert_frame_equal(part, expected)
+    frame["run_id"] = np.repeat(["r2", "r1", "r3"], 20_000)
+    write_table(frame, path, PROFILE_SCHEMA, config_hash="x", kind="profiles", row_group_rows=4096)
+    assert distinct_values(path, "run_id") == ["r2", "r1", "r3"]
+
+
+def test_profile_intervals_are_the_same_with_two_workers(catenary, n2, start):  # noqa: F811
+    # Each end of each interval is searched from s_opt alone: the ends and their evaluation
+    # counts with 2 worker processes are those of one.
+    model = make_likelihood(n2, catenary, np.zeros((1, 9)), start=start, n_samples=2).model
+    means, sigmas = _laws(start, 818.0)
+    data = simulate_deflections(model, means, sigmas, 117, seed=7, system_height_mode=MODE)
+    lik = make_likelihood(n2, catenary, data, start=start, n_samples=2000, seed=1, system_height_mode=MODE)
+    result = identify(lik, start)
+    names = ("messenger_tension_n", "dropper_5_length_m")
+    assert profile_intervals(lik, start, result, parameters=names) == profile_intervals(lik, start, result,
+                                                                                         parameters=names, workers=2)
+
+
+def test_what_fixing_buys_is_the_same_with_two_workers(catenary, n2, monkeypatch):
+    # Two repair windows of a 20-span nominal section (a 3 cm long dropper in span 5, another in
+    # span 12), one window a block: the table of their runs with 2 worker processes is one
+    # process's, bit for bit.
+    import yaml
+
+    from catenary.physics.dropper_table import nominal_dropper_lengths
+    from catenary.physics.pantograph import load_pantographs
+    from catenary.stages.contact_force.settings import ContactForceSettings
+    from catenary.stages.maintenance import repair
+
+    from .conftest import ROOT
+    from .test_maintenance import _section_posterior
+
+    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
+    settings = ContactForceSettings.from_mapping({**config["contact_force"], "speeds_kmh": [300]})
+    pantograph = load_pantographs(ROOT / config["pantographs"])[settings.pantograph]
+    nominal = np.r_[nominal_dropper_lengths(n2, catenary).dropper_lengths_m, n2.messenger_tension_n,
+                    n2.system_height_m, n2.system_height_m]
+    post = _section_posterior(20, nominal, [])
+    listed = pd.DataFrame({"span_id": ["S05", "S12"], "input": ["dropper_5_length_m", "dropper_9_length_m"]})
+    for span, name in zip(listed["span_id"], listed["input"]):
+        post.loc[(post.span_id == span) & (post.input == name), "mean"] += 0.03
+    monkeypatch.setattr(repair, "WINDOWS_PER_BLOCK", 1)
+    one, _ = repair.fixing_buys(post, listed, n2, catenary, pantograph, settings)
+    two, _ = repair.fixing_buys(post, listed, n2, catenary, pantograph, settings, workers=2)
+    assert len(one) == 4
+    pd.testing.assert_frame_equal(one, two, check_exact=True)
+
+
+def test_the_projection_is_the_same_with_two_workers(catenary, monkeypatch):
+    # Two sections cut one a block in two worker processes: the spans, the profiles and the
+    # report of one process, bit for bit.
+    from catenary.measurement import projection
+
+    from .test_projection import synthetic_line
+
+    recording, masts, _, _ = synthetic_line(catenary, seed=3)
+    monkeypatch.setattr(projection, "SECTIONS_PER_BLOCK", 1)
+    one = projection.project(recording, masts, catenary)
+    two = projection.project(recording, masts, catenary, workers=2)
+    pd.testing.assert_frame_equal(one.report, two.report, check_exact=True)
+    for name in catenary.span_types:
+        pd.testing.assert_frame_equal(one.spans[name], two.spans[name], check_exact=True)
+        pd.testing.assert_frame_equal(one.profiles[name], two.profiles[name], check_exact=True)
