@@ -408,28 +408,35 @@ def test_repair_windows_put_every_listed_span_in_an_analysed_part():
     assert len(skipped) == 1 and "S00, S19" in skipped[0][1]
 
 
-def test_repaired_geometry_runs_as_the_nominal_section(catenary, n2):
-    # A 10-span section at nominal but for dropper 5 of the central span 3 cm long (slack): the
-    # repaired window is the nominal section, whose criteria the contact-force study computes by
-    # its own path (design laws, no spread): equal to 1e-9; as measured, σ_F differs.
+def repair_setup(catenary, n2):
+    """The default run's contact-force settings at 300 km/h alone, its operating pantograph, and
+    N2's nominal inputs in a posterior's order (dropper lengths, T_MW, ΔH left and right)."""
     import yaml
 
-    from catenary.stages.contact_force.draws import build_section, draw_inputs
-    from catenary.stages.contact_force.laws import design_laws
-    from catenary.stages.contact_force.runs import run_section
-    from catenary.stages.contact_force.settings import ContactForceSettings
-    from catenary.stages.maintenance.repair import fixing_buys
+    from catenary.physics.dropper_table import nominal_dropper_lengths
     from catenary.physics.pantograph import load_pantographs
+    from catenary.stages.contact_force.settings import ContactForceSettings
 
     from .conftest import ROOT
 
     config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
     settings = ContactForceSettings.from_mapping({**config["contact_force"], "speeds_kmh": [300]})
     pantograph = load_pantographs(ROOT / config["pantographs"])[settings.pantograph]
-    from catenary.physics.dropper_table import nominal_dropper_lengths
-
     nominal = np.r_[nominal_dropper_lengths(n2, catenary).dropper_lengths_m, n2.messenger_tension_n,
                     n2.system_height_m, n2.system_height_m]
+    return settings, pantograph, nominal
+
+
+def test_repaired_geometry_runs_as_the_nominal_section(catenary, n2):
+    # A 10-span section at nominal but for dropper 5 of the central span 3 cm long (slack): the
+    # repaired window is the nominal section, whose criteria the contact-force study computes by
+    # its own path (design laws, no spread): equal to 1e-9; as measured, σ_F differs.
+    from catenary.stages.contact_force.draws import build_section, draw_inputs
+    from catenary.stages.contact_force.laws import design_laws
+    from catenary.stages.contact_force.runs import run_section
+    from catenary.stages.maintenance.repair import fixing_buys
+
+    settings, pantograph, nominal = repair_setup(catenary, n2)
     post = _section_posterior(10, nominal, [])
     post.loc[(post.span_id == "S04") & (post.input == "dropper_5_length_m"), "mean"] += 0.03
     listed = pd.DataFrame({"span_id": ["S04"], "input": ["dropper_5_length_m"]})

@@ -169,21 +169,11 @@ def test_what_fixing_buys_is_the_same_with_two_workers(catenary, n2, monkeypatch
     # Two repair windows of a 20-span nominal section (a 3 cm long dropper in span 5, another in
     # span 12), one window a block: the table of their runs with 2 worker processes is one
     # process's, bit for bit.
-    import yaml
-
-    from catenary.physics.dropper_table import nominal_dropper_lengths
-    from catenary.physics.pantograph import load_pantographs
-    from catenary.stages.contact_force.settings import ContactForceSettings
     from catenary.stages.maintenance import repair
 
-    from .conftest import ROOT
-    from .test_maintenance import _section_posterior
+    from .test_maintenance import _section_posterior, repair_setup
 
-    config = yaml.safe_load((ROOT / "config" / "config.yaml").read_text())
-    settings = ContactForceSettings.from_mapping({**config["contact_force"], "speeds_kmh": [300]})
-    pantograph = load_pantographs(ROOT / config["pantographs"])[settings.pantograph]
-    nominal = np.r_[nominal_dropper_lengths(n2, catenary).dropper_lengths_m, n2.messenger_tension_n,
-                    n2.system_height_m, n2.system_height_m]
+    settings, pantograph, nominal = repair_setup(catenary, n2)
     post = _section_posterior(20, nominal, [])
     listed = pd.DataFrame({"span_id": ["S05", "S12"], "input": ["dropper_5_length_m", "dropper_9_length_m"]})
     for span, name in zip(listed["span_id"], listed["input"]):

@@ -17,5 +17,5 @@ from .runner import (MAST_COLUMNS, REGISTRATION_COLUMNS, SECTION_COLUMNS, RunReg
                      register_run, unregistered_run)
 from .settings import RegistrationSettings
 
-__all__ = ["ChainageMap", "MAST_COLUMNS", "REGISTRATION_COLUMNS", "RegistrationSettings", "RunRegistration", "SECTION_COLUMNS", "fit_map",
-           "masts_from_trace", "register_run", "unregistered_run"]
+__all__ = ["ChainageMap", "MAST_COLUMNS", "REGISTRATION_COLUMNS", "RegistrationSettings", "RunRegistration",
+           "SECTION_COLUMNS", "fit_map", "masts_from_trace", "register_run", "unregistered_run"]

@@ -80,8 +80,8 @@ from .section_fit import fit_section, height_evidence, table_std_from_residuals
 from .settings import RegistrationSettings
 from .supports import LocalFit, Trace, align_pattern, kink_signal, locate_stagger_support, trace_of
 
-__all__ = ["MAST_COLUMNS", "REGISTRATION_COLUMNS", "SECTION_COLUMNS", "RunRegistration", "masts_from_trace", "register_run", "support_kinks",
-           "support_line", "unregistered_run"]
+__all__ = ["MAST_COLUMNS", "REGISTRATION_COLUMNS", "SECTION_COLUMNS", "RunRegistration", "masts_from_trace",
+           "register_run", "support_kinks", "support_line", "unregistered_run"]
 
 MATCHED, TABLE_ONLY, MISSING, EXTRA = "matched", "table_only", "missing_from_table", "extra_in_table"
 REGISTERED, REFUSED, NOT_COVERED, UNREGISTERED = "registered", "refused", "not_covered", "unregistered"
