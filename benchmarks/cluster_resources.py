@@ -115,14 +115,22 @@ def requests(profile: Path = PROFILE) -> dict[str, dict]:
 
 def evaluate(request, input_size_mb: float) -> float:
     """A request for a job whose inputs weigh ``input_size_mb`` [MiB]: a number as it is, an
-    expression evaluated as Snakemake does, with ``input.size_mb`` (and the builtins)."""
-    if isinstance(request, str):
-        return float(eval(request, {"input": SimpleNamespace(size_mb=input_size_mb)}))
-    return float(request)
+    expression by Snakemake's own evaluator of profile resources (``input.size_mb`` and Python's
+    builtins in reach; anything else, ``math`` for one, is a NameError there, which Snakemake
+    answers by passing the expression on as a string: refused here)."""
+    if not isinstance(request, str):
+        return float(request)
+    from snakemake.resources import Resource
+
+    value = Resource.cli_evaluator("request", request, wildcards=None, input=SimpleNamespace(size_mb=input_size_mb),
+                                   attempt=1, async_run=None)
+    if not isinstance(value, (int, float)):
+        raise ValueError(f"request {request!r}: Snakemake evaluates it to {value!r}, not a number")
+    return float(value)
 
 
 def scaled(sizes: np.ndarray, values: np.ndarray, margin: float, floor: float, unit: float = 1.0):
-    """The request ``ceil(margin (a + b · size) / unit)`` for jobs of ``sizes`` [MiB] that measured
+    """The request ``⌈margin (a + b · size) / unit⌉`` (as ``int(…) + 1``) for jobs of ``sizes`` [MiB] that measured
     ``values``: ``a + b · size`` fitted by least squares (b ≥ 0), then ``a`` raised until the line
     covers every job; at least ``floor``. A plain number (the largest job's) where the growth adds
     less than :data:`SCALING_THRESHOLD` of it over the measured sizes or the sizes do not vary."""
@@ -136,7 +144,7 @@ def scaled(sizes: np.ndarray, values: np.ndarray, margin: float, floor: float, u
     if b * np.ptp(x) < SCALING_THRESHOLD * y.max() or a + b * x.min() < 0:
         return max(int(floor), peak)
     a_req, b_req = margin * a / unit, margin * b / unit
-    return f"max({int(floor)}, math.ceil({a_req:.6g} + {b_req:.6g} * input.size_mb))"
+    return f"max({int(floor)}, int({a_req:.6g} + {b_req:.6g} * input.size_mb) + 1)"   # int + 1 ≥ ceil
 
 
 def table(measured: pd.DataFrame, asked: dict[str, dict]) -> tuple[str, list[str]]:
