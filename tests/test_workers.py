@@ -254,3 +254,20 @@ def test_a_long_lines_sections_are_corrected_in_batches_each_section_once():
     assert max(len(b) for b in batches.values()) == -(-500 // AUTO_JOBS) == 5
     assert len(batches) == 2 + -(-498 // 5) and batches["L0003+4"] == line[2:7]
     assert set(map(len, section_batches(line, sections_per_job=2).values())) == {2}
+
+
+def test_the_inversion_is_the_same_with_two_workers(catenary, n2, monkeypatch):
+    # 7 spans in blocks of 3 (three blocks, two workers), one of them needing a pushing dropper
+    # (a 5 cm kink up at mid-span): the same lengths, spans and left-out reason as in one process.
+    from catenary.physics.dropper_table import presag_deflection_m
+    from catenary.stages import inversion
+    monkeypatch.setattr(inversion, "BLOCK_SPANS", 3)
+    w = np.tile(presag_deflection_m(n2, n2.dropper_positions_m), (7, 1))
+    w += 1e-3 * np.random.default_rng(8).standard_normal(w.shape)
+    w[4, 4] += 0.05
+    ids = [f"s{k}" for k in range(7)]
+    one = inversion.invert_spans(n2, catenary, ids, w, workers=1)
+    two = inversion.invert_spans(n2, catenary, ids, w, workers=2)
+    assert one.span_id.tolist() == two.span_id.tolist() == [i for i in ids if i != "s4"]
+    assert np.array_equal(one.dropper_lengths_m, two.dropper_lengths_m)
+    assert one.left_out.equals(two.left_out) and one.left_out["span_id"].tolist() == ["s4"]
