@@ -133,7 +133,9 @@ def scaled(sizes: np.ndarray, values: np.ndarray, margin: float, floor: float, u
     """The request ``⌈margin (a + b · size) / unit⌉`` (as ``int(…) + 1``) for jobs of ``sizes`` [MiB] that measured
     ``values``: ``a + b · size`` fitted by least squares (b ≥ 0), then ``a`` raised until the line
     covers every job; at least ``floor``. A plain number (the largest job's) where the growth adds
-    less than :data:`SCALING_THRESHOLD` of it over the measured sizes or the sizes do not vary."""
+    less than :data:`SCALING_THRESHOLD` of it over the measured sizes, where the sizes do not
+    vary, or where the request would stay at the floor even for inputs 10 × the largest
+    measured."""
     ok = np.isfinite(sizes)
     x, y = sizes[ok], values[ok]
     peak = math.ceil(margin * float(values.max()) / unit)
@@ -144,6 +146,8 @@ def scaled(sizes: np.ndarray, values: np.ndarray, margin: float, floor: float, u
     if b * np.ptp(x) < SCALING_THRESHOLD * y.max() or a + b * x.min() < 0:
         return max(int(floor), peak)
     a_req, b_req = margin * a / unit, margin * b / unit
+    if a_req + b_req * 10 * x.max() <= floor:     # at the floor even on inputs 10 × the largest measured
+        return max(int(floor), peak)
     return f"max({int(floor)}, int({a_req:.6g} + {b_req:.6g} * input.size_mb) + 1)"   # int + 1 ≥ ceil
 
 
@@ -213,3 +217,7 @@ def main() -> int:
     for problem in short:
         print(f"too small: {problem}", file=sys.stderr)
     return 1 if short else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
