@@ -1,4 +1,5 @@
-"""Rule correct_section: iterative dynamic correction of one section's spans (paper Fig. 5)."""
+"""Rule correct_section: iterative dynamic correction of a batch of sections' spans (paper Fig. 5),
+section after section (catenary.stages.correction.batches)."""
 
 from pathlib import Path
 
@@ -16,35 +17,41 @@ from catenary.stages.model_error.sources import ModelErrorSettings
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
 log = rule_logger("correct_section", snakemake.log[0])
-section_id = snakemake.wildcards.section_id
+sections = list(snakemake.params.sections)
 catenary = load_catenary(snakemake.input.catenary)
 settings = CorrectionSettings.from_mapping(snakemake.params.correction)
 pantograph = load_pantographs(snakemake.input.pantographs)[settings.pantograph]
 every = pd.concat([read_table(path).assign(span_type=span_type)
                    for span_type, path in zip(snakemake.params.span_types, snakemake.input.spans)], ignore_index=True)
-spans = every[every["section_id"] == section_id].reset_index(drop=True)
-ids = spans["span_id"].astype(str).tolist()
-profiles = pd.concat([read_table(path, filters=[("span_id", "in", ids)]) for path in snakemake.input.profiles],
-                     ignore_index=True)  # this section's rows only: the job's cost does not grow with the line
-log.info("section %s: %d spans, %s pass, tolerance %.2f mm", section_id, len(spans), settings.mode,
-         settings.tolerance_m * 1e3)
 report = pd.read_csv(snakemake.input.report, dtype={"span_id": str, "run_id": str, "section_id": str,
                                                     "span_type": str}, keep_default_na=False,
                      na_values={c: [""] for c in ("start_chainage_m", "end_chainage_m", "length_m")})
 budget = ModelErrorSettings.from_mapping(snakemake.params.model_error)
-measure = section_id in budget.measured_sections(every)
-if budget.enabled and not measure:
-    log.info("section %s: model-error budget measured on other sections (model_error.sections_per_span_type %d)",
-             section_id, budget.sections_per_span_type)
+measured_sections = budget.measured_sections(every)
 n_max = max(catenary.span_type(t).n_droppers for t in snakemake.params.span_types)
 measure_budget = SectionBudget(catenary, budget.sources, settings.mode, settings.time_step_s, n_max, log)
-corrected, convergence, corrected_profiles = correct_spans(spans, catenary, pantograph, settings, log=log,
-                                                           report=report, after_run=measure_budget if measure else None,
-                                                           profiles=profiles)
+if len(sections) > 1:
+    log.info("batch %s: %d sections, %s … %s", snakemake.wildcards.batch, len(sections), sections[0], sections[-1])
+parts = []
+for section_id in sections:
+    spans = every[every["section_id"] == section_id].reset_index(drop=True)
+    ids = spans["span_id"].astype(str).tolist()
+    profiles = pd.concat([read_table(path, filters=[("span_id", "in", ids)]) for path in snakemake.input.profiles],
+                         ignore_index=True)  # this section's rows only: the job's cost does not grow with the line
+    log.info("section %s: %d spans, %s pass, tolerance %.2f mm", section_id, len(spans), settings.mode,
+             settings.tolerance_m * 1e3)
+    measure = section_id in measured_sections
+    if budget.enabled and not measure:
+        log.info("section %s: model-error budget measured on other sections (model_error.sections_per_span_type %d)",
+                 section_id, budget.sections_per_span_type)
+    parts.append(correct_spans(spans, catenary, pantograph, settings, log=log, report=report,
+                               after_run=measure_budget if measure else None, profiles=profiles))
+    log.info("section %s: %d of %d spans converged", section_id, int(parts[-1][0]["converged"].sum()),
+             len(parts[-1][0]))
+corrected, convergence, corrected_profiles = (pd.concat([p[k] for p in parts], ignore_index=True) for k in range(3))
 measure_budget.table().to_parquet(snakemake.output.model_error, index=False)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
             config_hash=settings_hash(snakemake.config), kind="corrected_section")
 write_table(corrected_profiles, Path(snakemake.output.profiles), profiles_schema(),
             config_hash=settings_hash(snakemake.config), kind="corrected_profiles_section")
 convergence.to_csv(snakemake.output.convergence, index=False)
-log.info("section %s: %d of %d spans converged", section_id, int(corrected["converged"].sum()), len(corrected))

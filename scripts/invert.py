@@ -1,16 +1,24 @@
 """Rule invert: dropper-only inversion of the corrected spans of one type (paper §4.1,
-Table 1, Fig. 8)."""
+Table 1, Fig. 8).
 
-import pandas as pd
+The spans are inverted in ``threads`` worker processes, each with one BLAS thread (set here,
+before NumPy loads; Snakemake sets the job's ``threads``).
+"""
 
-from catenary.physics.config import load_catenary
-from catenary.physics.dropper_table import nominal_dropper_lengths
-from catenary.stages.inversion import (converged_spans, dropper_statistics, droppers_schema, invert_spans,
-                                min_correlation, pearson_figure, pearson_matrix, w_columns)
-from catenary.plumbing.heap import steady_heap
-from catenary.plumbing.logs import rule_logger
-from catenary.plumbing.parquet import read_table, settings_hash, write_table
-from catenary.report.tables import write_shown
+from catenary.plumbing.blas import one_blas_thread
+
+one_blas_thread(override=True)
+
+import pandas as pd  # noqa: E402
+
+from catenary.physics.config import load_catenary  # noqa: E402
+from catenary.physics.dropper_table import nominal_dropper_lengths  # noqa: E402
+from catenary.plumbing.heap import steady_heap  # noqa: E402
+from catenary.plumbing.logs import rule_logger  # noqa: E402
+from catenary.plumbing.parquet import read_table, settings_hash, write_table  # noqa: E402
+from catenary.report.tables import write_shown  # noqa: E402
+from catenary.stages.inversion import (converged_spans, dropper_statistics, droppers_schema,  # noqa: E402
+                                       invert_spans, min_correlation, pearson_figure, pearson_matrix, w_columns)
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
@@ -24,7 +32,8 @@ log.info("%s: %d converged spans to invert, %d left out (correction not converge
          span_type.name, len(corrected), n_unconverged)
 result = invert_spans(span_type, catenary, corrected["span_id"], corrected[w_columns(n)].to_numpy(dtype=float),
                       messenger_tension_n=None if p["messenger_tension_n"] == "design" else p["messenger_tension_n"],
-                      system_height_m=None if p["system_height_m"] == "design" else p["system_height_m"])
+                      system_height_m=None if p["system_height_m"] == "design" else p["system_height_m"],
+                      workers=snakemake.threads)
 log.info("held fixed: T_MW = %.1f N, ΔH = %.4f m; %d spans inverted, %d left out (infeasible W)",
          result.messenger_tension_n, result.system_height_m, len(result.span_id), len(result.left_out))
 for row in result.left_out.itertuples():

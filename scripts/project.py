@@ -24,7 +24,7 @@ from catenary.plumbing.logs import rule_logger  # noqa: E402
 from catenary.plumbing.parquet import read_table, settings_hash  # noqa: E402
 from catenary.report.tables import write_shown  # noqa: E402
 from catenary.stages.correction import CorrectionSettings  # noqa: E402
-from catenary.stages.correction import measuring_lag  # noqa: E402
+from catenary.stages.correction.lag import measuring_lag  # noqa: E402
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 

@@ -12,7 +12,7 @@ from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import distinct_values, read_table
 from catenary.report.tables import write_shown
 from catenary.stages.correction import CorrectionSettings
-from catenary.stages.correction import measuring_lag
+from catenary.stages.correction.lag import measuring_lag
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 

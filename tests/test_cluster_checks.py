@@ -3,6 +3,7 @@
 import importlib.util
 import re
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -102,15 +103,54 @@ def test_compare_tells_metadata_from_values_and_masks_only_report_times(tmp_path
     assert "MISSING   missing.csv" in out and "DIFFERENT r.md" in out
 
 
-def test_slurm_profile_covers_the_measured_default_run():
-    # workflow/profiles/slurm/measured.csv: peak RSS and longest wall time per rule of the default
-    # run (benchmarks/cluster_resources.py --write); each request must cover them with the profile's
-    # stated margins (memory 1.5 ×, time 3 ×), or a job would be killed on a cluster like this one
+def test_slurm_profile_covers_every_measured_job_of_the_default_run_and_a_long_line():
+    # workflow/profiles/slurm/measured.csv: each job's peak RSS, wall time and input size, of the
+    # default run and of a 10 000-span line (benchmarks/cluster_resources.py --write); each
+    # job's request, evaluated at its own inputs' size as Snakemake would, must cover it with the
+    # profile's margins (memory 1.5 ×, time 3 ×), or the job would be killed on a cluster like this
     resources = cluster_resources
     measured = pd.read_csv(resources.MEASURED)
-    assert {"correct_section", "identify", "diagnose", "contact_force_batch", "campaign_section"} <= set(measured["rule"])
+    assert {"correct_section", "identify", "diagnose", "contact_force_batch", "register"} <= set(measured["rule"])
+    assert measured["run"].nunique() >= 2 and measured["run"].str.contains("line_10000").any()
+    assert measured["input_size_mb"].notna().all()
     _, short = resources.table(measured, resources.requests())
     assert short == []
+    # the rules whose memory grows with the line ask for more on a longer one
+    asked = resources.requests()
+    assert isinstance(asked["diagnose"]["mem_mb"], str) and isinstance(asked["ingest"]["mem_mb"], str)
+    assert resources.evaluate(asked["ingest"]["mem_mb"], 10_000.0) > resources.evaluate(asked["ingest"]["mem_mb"], 1.0)
+
+
+def test_a_scaled_request_covers_each_job_and_grows_with_its_inputs():
+    # Jobs whose peak grows with their inputs (a + b · size and a scatter): the fitted request,
+    # at each job's own size, covers 1.5 × its peak, and grows beyond the largest measured size;
+    # a rule whose peak does not grow gets a plain number, 1.5 × its largest, at least the floor.
+    resources = cluster_resources
+    rng = np.random.default_rng(3)
+    size = np.array([0.2, 0.3, 2.0, 20.0, 180.0, 200.0])
+    peak = 300.0 + 40.0 * size + rng.normal(0.0, 30.0, size.size)
+    request = resources.scaled(size, peak, resources.MEMORY_MARGIN, 1000)
+    assert isinstance(request, str)
+    got = np.array([resources.evaluate(request, x) for x in size])
+    assert np.all(got >= resources.MEMORY_MARGIN * peak) and np.all(got >= 1000)
+    assert resources.evaluate(request, 2000.0) > resources.evaluate(request, 200.0)
+    flat = resources.scaled(size, np.full(size.size, 700.0), resources.MEMORY_MARGIN, 1000)
+    assert flat == 1050
+    assert resources.scaled(size, np.full(size.size, 300.0), resources.MEMORY_MARGIN, 1000) == 1000
+
+
+def test_the_coverage_check_fails_on_a_short_request_and_an_expression_snakemake_cannot_read():
+    # A job of 5 GB against the 1 GB default is reported; an expression naming `math` is passed on
+    # by Snakemake as a string (its eval sees no `math`): refused rather than submitted.
+    resources = cluster_resources
+    measured = pd.DataFrame({"rule": ["diagnose"], "job": ["diagnose/N2"], "input_size_mb": [10.0],
+                             "rss_mb": [5000.0], "pss_mb": [5000.0], "wall_s": [60.0]})
+    default = {"mem_mb": 1000, "runtime": 10, "cpus_per_task": 1}
+    _, short = resources.table(measured, {"*": default})
+    assert len(short) == 1 and short[0].startswith("diagnose (diagnose/N2): mem_mb 1000")
+    with pytest.raises(ValueError, match="not a number"):
+        resources.evaluate("max(1000, math.ceil(2.0 * input.size_mb))", 10.0)
+    assert resources.evaluate("max(1000, int(2.0 * input.size_mb) + 1)", 1000.0) == 2001
 
 
 def test_slurm_cpus_follow_each_rules_threads():

@@ -19,7 +19,7 @@ from catenary.measurement.registration import RegistrationSettings, masts_from_t
 from catenary.physics.config import load_catenary
 from catenary.physics.pantograph import load_pantographs
 from catenary.stages.correction import CorrectionSettings
-from catenary.stages.correction import measuring_lag
+from catenary.stages.correction.lag import measuring_lag
 
 from .conftest import ROOT, workflow_dir
 

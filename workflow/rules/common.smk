@@ -259,7 +259,7 @@ def correction_sections(wildcards=None):
 
 def model_error_sections():
     """Section ids whose correction also measures the model-error budget (rule correct_section
-    starts them first)."""
+    corrects each alone and starts it first)."""
     import pandas as pd
     import pyarrow.parquet as pq
 
@@ -269,6 +269,16 @@ def model_error_sections():
     spans = pd.concat([pq.read_table(path, columns=["section_id"]).to_pandas().assign(span_type=span_type)
                        for span_type, path in zip(SPAN_TYPES, outputs)], ignore_index=True)
     return ModelErrorSettings.from_mapping(config.get("model_error")).measured_sections(spans)
+
+
+def correction_batches():
+    """The correction jobs' batches of sections, ``{name: [section ids]}``
+    (:func:`catenary.stages.correction.batches.section_batches`): one section per job on a line
+    of up to 100 sections, the model-error sections each alone."""
+    from catenary.stages.correction.batches import section_batches
+
+    return section_batches(correction_sections(), model_error_sections(),
+                           (config.get("correction") or {}).get("sections_per_job"))
 
 
 def correction_outputs():

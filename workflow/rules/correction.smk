@@ -1,9 +1,11 @@
-# correction_sections(), model_error_sections() and correction_outputs() live in common.smk: the
-# linter wants functions apart from rules.
+# correction_sections(), correction_batches(), model_error_sections() and correction_outputs() live
+# in common.smk: the linter wants functions apart from rules.
 
 
 rule correct_section:
-    """Iterative dynamic correction of one section's spans (paper §2.2, Fig. 5)."""
+    """Iterative dynamic correction of a batch of sections' spans (paper §2.2, Fig. 5): one section
+    per job on a line of up to 100 sections (the batch is then named by its section), a long
+    line's sections several per job (catenary.stages.correction.batches)."""
     input:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         profiles=expand(f"{RESULTS}/{{span_type}}/profiles.parquet", span_type=SPAN_TYPES),
@@ -11,23 +13,24 @@ rule correct_section:
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:
-        corrected=f"{RESULTS}/correction/sections/{{section_id}}.parquet",
-        profiles=f"{RESULTS}/correction/sections/{{section_id}}_profiles.parquet",
-        convergence=f"{RESULTS}/correction/sections/{{section_id}}_convergence.csv",
-        model_error=f"{RESULTS}/correction/sections/{{section_id}}_model_error.parquet",
+        corrected=f"{RESULTS}/correction/sections/{{batch}}.parquet",
+        profiles=f"{RESULTS}/correction/sections/{{batch}}_profiles.parquet",
+        convergence=f"{RESULTS}/correction/sections/{{batch}}_convergence.csv",
+        model_error=f"{RESULTS}/correction/sections/{{batch}}_model_error.parquet",
     wildcard_constraints:
-        section_id="[^/]+",
+        batch="[^/]+",
     # A section that also measures the model-error budget takes 3–5 times longer than the others:
-    # started first, it runs beside them instead of alone at the end, one core idle.
-    priority: lambda wc: 1 if wc.section_id in model_error_sections() else 0
+    # a batch of its own, started first, it runs beside them instead of alone at the end, one core idle.
+    priority: lambda wc: 1 if set(correction_batches()[wc.batch]) & set(model_error_sections()) else 0
     params:
+        sections=lambda wc: correction_batches()[wc.batch],
         correction=config["correction"],
         model_error=config.get("model_error"),
         span_types=SPAN_TYPES,
     log:
-        f"{RESULTS}/logs/correct_section/{{section_id}}.log",
+        f"{RESULTS}/logs/correct_section/{{batch}}.log",
     benchmark:
-        f"{RESULTS}/benchmarks/correct_section/{{section_id}}.tsv",
+        f"{RESULTS}/benchmarks/correct_section/{{batch}}.tsv",
     conda:
         "../envs/catenary.yaml"
     script:
@@ -38,14 +41,13 @@ rule correction:
     """Gather the corrected sections: static W per span type, the convergence log and the
     model-error budget (shift of the corrected W per source, against the correction's size)."""
     input:
-        sections=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}.parquet",
-                                   section_id=correction_sections()),
-        convergence=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}_convergence.csv",
-                                      section_id=correction_sections()),
-        model_error=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}_model_error.parquet",
-                                      section_id=correction_sections()),
-        profiles=lambda wc: expand(f"{RESULTS}/correction/sections/{{section_id}}_profiles.parquet",
-                                   section_id=correction_sections()),
+        sections=lambda wc: expand(f"{RESULTS}/correction/sections/{{batch}}.parquet", batch=correction_batches()),
+        convergence=lambda wc: expand(f"{RESULTS}/correction/sections/{{batch}}_convergence.csv",
+                                      batch=correction_batches()),
+        model_error=lambda wc: expand(f"{RESULTS}/correction/sections/{{batch}}_model_error.parquet",
+                                      batch=correction_batches()),
+        profiles=lambda wc: expand(f"{RESULTS}/correction/sections/{{batch}}_profiles.parquet",
+                                   batch=correction_batches()),
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         catenary=config["catenary"],
     output:

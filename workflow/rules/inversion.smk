@@ -12,6 +12,9 @@ rule invert:
         pearson=reported(f"{RESULTS}/{{span_type}}/inversion/pearson.png", "pearson", INVERSION, "Fig. 8: correlations"),
     params:
         inversion=config["inversion"],
+    # The spans in `threads` worker processes (the same inversion for any number; the default
+    # profile gives each of the two span types' jobs one, side by side).
+    threads: 2
     log:
         f"{RESULTS}/logs/invert/{{span_type}}.log",
     benchmark:

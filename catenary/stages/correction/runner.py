@@ -72,6 +72,12 @@ from .settings import CorrectionSettings
 #: Largest mismatch [m] between the end of a span and the start of the next for them to be
 #: modelled as one run of consecutive spans (the projection copies the masts' chainages).
 CONTIGUITY_TOLERANCE_M = 1e-6
+#: The quasi-static start stops once a pass no longer halves the largest gap (it stays above this
+#: fraction of the previous pass's): it is there to bring the model near the measurement cheaply,
+#: and a span whose gap stalls (a dropper at the edge of slack: 0.127, 0.128, 0.129 mm in passes
+#: 2–5 of a typical section) would otherwise hold every section to its 5 passes — 40 % of the
+#: 10 000-span line's sections made 4 or 5 of them, to no effect on where the dynamic passes end.
+QUASI_STATIC_STALL = 0.5
 #: Columns of the corrected profiles (:func:`correct_spans`; ``results/{span_type}/corrected_profiles.parquet``):
 #: per measured sample, its height, the final model's simulated pass and its static CW height [m].
 PROFILE_COLUMNS = ("span_id", "run_id", "x_m", "height_m", "simulated_height_m", "static_height_m")
@@ -318,6 +324,9 @@ def correct_run(rows: pd.DataFrame, catenary: Catenary, pantograph: Pantograph, 
                                 f"{1e3 * tolerance:.2f} mm")
                 if np.all(norms[measured] < tolerance):
                     break
+                if mode != settings.mode and len(history) > 1 and (
+                        largest_finite(norms) > QUASI_STATIC_STALL * largest_finite(history[-2][1])):
+                    break        # the quasi-static start has done what it can (QUASI_STATIC_STALL)
         profile_simulated = None
         if profile_chainage_m is not None:
             profile_simulated = (simulated[n_points:] if last_mode == "dynamic" else measuring_pass(

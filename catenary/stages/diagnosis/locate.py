@@ -109,8 +109,7 @@ def bootstrap_eigenvalues(model_w_m: np.ndarray, fit: GaussianFit, n_spans: int,
     return np.linalg.eigvalsh(0.5 * (a + np.swapaxes(a, 1, 2)))[:, ::-1]
 
 
-def locate(data_w_m: np.ndarray, fit: GaussianFit, j: float, model_draws_m: np.ndarray, *,
-           n_replicates: int) -> Locate:
+def locate(data_w_m: np.ndarray, fit: GaussianFit, j: float, bootstrap: np.ndarray) -> Locate:
     """Residuals, whitened eigenvalues with their bootstrap band, distances, references.
 
     Parameters
@@ -120,10 +119,9 @@ def locate(data_w_m: np.ndarray, fit: GaussianFit, j: float, model_draws_m: np.n
         Mean and covariance of M's model sample.
     j : float
         J of M.
-    model_draws_m : numpy.ndarray, shape (≥ B ν, n)
-        i.i.d. draws of W from M (for the bootstrap).
-    n_replicates : int
-        B.
+    bootstrap : numpy.ndarray, shape (B, n)
+        The whitened eigenvalues of B data sets of ν spans drawn i.i.d. from M
+        (:func:`bootstrap_eigenvalues`, block by block: :meth:`.refits.DiagnosisContext.locate`).
     """
     data = np.asarray(data_w_m, dtype=float)
     nu, n = data.shape
@@ -135,7 +133,7 @@ def locate(data_w_m: np.ndarray, fit: GaussianFit, j: float, model_draws_m: np.n
     l_inv = solve_triangular(fit.chol, np.eye(n), lower=True)
     a = l_inv @ s @ l_inv.T
     eig = np.linalg.eigvalsh(0.5 * (a + a.T))[::-1]
-    boot = bootstrap_eigenvalues(model_draws_m, fit, nu, n_replicates)
+    boot = np.asarray(bootstrap, dtype=float)
     y = solve_triangular(fit.chol, (data - fit.mean).T, lower=True)
     d2 = np.einsum("ij,ij->j", y, y)
     cvm = stats.cramervonmises(d2, stats.chi2(n).cdf)

@@ -32,13 +32,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from catenary.plumbing.errors import ConvergenceError
+from catenary.plumbing.workers import map_blocks
 from catenary.stages.identification.design import design_dimension, draw_unit_design
 from catenary.stages.identification.fit import ParameterBox, messenger_tension_bounds_n
 from catenary.stages.identification.likelihood import Likelihood
 from catenary.stages.identification.scoring import STEP as _BASE_STEP
 from catenary.stages.identification.scoring import expected_information, gaussian_moments
 from .candidates import CANDIDATES
-from .locate import (Locate, efficient_information, locate, mixture_sf,
+from .locate import (Locate, bootstrap_eigenvalues, efficient_information, locate, mixture_sf,
                      required_noncentrality, score_pvalue, secant_noncentrality)
 from .model import EffectSampler, ModelSet, design_columns, relative_cost
 from .problem import Fit, JointProblem, refit, with_covariance
@@ -48,6 +49,13 @@ __all__ = ["CandidateTest", "DiagnosisContext", "base_moments_at", "continue_ref
 
 # _BASE_STEP (from identification.scoring): the step, in θ, of the base coordinates' finite
 # differences for the Fisher information, the same as the scoring's.
+#: Model spans drawn per block of the eigenvalue bootstrap (:meth:`DiagnosisContext.locate`): its
+#: B data sets of ν spans are drawn and reduced to their eigenvalues a block of
+#: ``max(1, this // ν)`` data sets at a time, each block from its own random stream
+#: (``[seed, first data set]``), so that the look's memory stays at a block's whatever B ν (5 × 10⁶
+#: model spans on 5 000 spans: 9.4 GB when drawn at once) and the answer is the same for any
+#: number of workers.
+BOOTSTRAP_BLOCK_DRAWS = 100_000
 #: Step of a shift's finite differences, in units of its scale; a spread's variance step is (this × scale)².
 _EFFECT_STEP = 0.25
 
@@ -115,7 +123,7 @@ class DiagnosisContext:
     """What every model of one diagnosis shares: data, design, model set, box."""
 
     def __init__(self, span_type, catenary, data, base, settings, force_influence, declared_force_n, effects, pairs,
-                 observations=None):
+                 observations=None, workers: int = 1):
         self.span_type, self.data, self.base, self.settings, self.pairs = span_type, data, base, settings, pairs
         self.observations = observations
         self.start = base.start_inputs(span_type, catenary)
@@ -134,6 +142,7 @@ class DiagnosisContext:
         self.free_means = base.free_mean_names(n)
         self.free_sigmas = base.random_names(n)
         self.rng = np.random.default_rng(settings.seed + 1)
+        self.workers = int(workers)
         self.n_evaluations = 0
 
     def problem(self, effects: tuple[str, ...]) -> JointProblem:
@@ -145,19 +154,21 @@ class DiagnosisContext:
                          observations=self.observations)
         return JointProblem.for_inputs(lik, self.start, self.free_means, self.free_sigmas, effects)
 
-    def model_draws(self, problem: JointProblem, theta: np.ndarray, count: int) -> np.ndarray:
-        """``count`` i.i.d. model spans at θ (taut-weighted acceptance, as J weights them)."""
+    def model_draws(self, problem: JointProblem, theta: np.ndarray, count: int, rng: np.random.Generator
+                    ) -> np.ndarray:
+        """``count`` i.i.d. model spans at θ (taut-weighted acceptance, as J weights them), drawn
+        with ``rng``."""
         lik = problem.likelihood
         means, sigmas = problem.laws(theta)
         mags = problem.magnitudes(theta)
         out, n_have = [], 0
         for _ in range(50):
-            z = np.clip(self.rng.standard_normal((max(2 * (count - n_have), 1000), self.dimension)), -6.0, 6.0)
+            z = np.clip(rng.standard_normal((max(2 * (count - n_have), 1000), self.dimension)), -6.0, 6.0)
             res = lik.sampler(z, means, sigmas, mags)
             if res is None:
                 break
             w, f_min = res
-            keep = self.rng.uniform(size=f_min.size) < lik.taper_weights(f_min)
+            keep = rng.uniform(size=f_min.size) < lik.taper_weights(f_min)
             out.append(w[keep])
             n_have += int(keep.sum())
             if n_have >= count:
@@ -167,13 +178,23 @@ class DiagnosisContext:
         return np.concatenate(out)[:count]
 
     def locate(self, problem: JointProblem, fit: Fit) -> Locate:
+        """:func:`.locate.locate` at the fit, its bootstrap drawn block by block (module docs of
+        :data:`BOOTSTRAP_BLOCK_DRAWS`) in the context's ``workers``."""
         value = problem.evaluate(fit.theta)
-        draws = self.model_draws(problem, fit.theta, self.settings.bootstrap_replicates * self.data.shape[0])
+        nu = self.data.shape[0]
+        seed = int(self.rng.integers(2**63))       # this look's stream, from the diagnosis' seed
+
+        def block(start: int, stop: int) -> np.ndarray:
+            draws = self.model_draws(problem, fit.theta, (stop - start) * nu, np.random.default_rng([seed, start]))
+            return bootstrap_eigenvalues(draws, value.fit, nu, stop - start)
+
+        replicates = self.settings.bootstrap_replicates
+        boot = np.concatenate(map_blocks(block, replicates, self.workers, max(1, BOOTSTRAP_BLOCK_DRAWS // nu)))
         # the located figures are of W: with measurements besides W, J of W's own law (the free
         # Gaussian it is compared with has no other quantity)
         j = value.j if value.fit is None or self.observations is None else float(
             np.sum(problem.likelihood.data_log_density(value.fit)))
-        return locate(self.data, value.fit, j, draws, n_replicates=self.settings.bootstrap_replicates)
+        return locate(self.data, value.fit, j, boot)
 
 
 def _information(ctx: DiagnosisContext, problem: JointProblem, theta: np.ndarray, base_moments) -> tuple:

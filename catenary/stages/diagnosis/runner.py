@@ -193,7 +193,8 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
     declared_force_n : float
         The measuring force the correction assumed [N].
     workers : int
-        Processes testing the candidates of a step side by side (the result is the same).
+        Processes testing the candidates of a step side by side and drawing the eigenvalue
+        bootstrap's blocks (the result is the same).
     n_left_out : int
         Spans of the type left out upstream (correction not converged), for the refusal message
         when too few spans remain (:func:`catenary.stages.identification.runner.check_span_count`).
@@ -209,7 +210,7 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
     n = span_type.n_droppers
     candidates, skipped = applicable_candidates(settings, base, n, force_influence_m_n is not None)
     ctx = DiagnosisContext(span_type, catenary, data, base, settings, force_influence_m_n, declared_force_n,
-                           (*settings.start_effects, *candidates), mast_pairs, observations)
+                           (*settings.start_effects, *candidates), mast_pairs, observations, workers=workers)
     problem = ctx.problem(tuple(settings.start_effects))
     check_span_count(span_type.name, data.shape[0], len(problem.names), log, n_left_out=n_left_out)
     fit = refit(problem, np.zeros(len(problem.names)), ctx.box, base_step=base.initial_step, effect_step=1.0,
