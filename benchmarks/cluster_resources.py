@@ -50,6 +50,9 @@ def job_input_sizes(results: Path, metadata: Path = METADATA) -> dict[str, float
     ``benchmarks/R/X.tsv`` share their path). The inputs' sizes are read now: run it on the
     results it measures, untouched since."""
     sizes = {}
+    results = Path(results).resolve()
+    if results.is_relative_to(ROOT):
+        results = results.relative_to(ROOT)       # Snakemake records the paths it was given: relative ones
     logs = str(results).rstrip("/") + "/logs/"
     for record in metadata.rglob("*") if metadata.is_dir() else ():
         if not record.is_file():
@@ -88,6 +91,9 @@ def measure_jobs(results: Path) -> pd.DataFrame:
                      "rss_mb": float(row["max_rss"]), "pss_mb": float(row["max_pss"]), "wall_s": float(row["s"])})
     if not rows:
         raise SystemExit(f"{bench}: no benchmark files (run the workflow into {results} first)")
+    if not sizes:
+        raise SystemExit(f"{results}: Snakemake keeps no record of its jobs in {METADATA} (run the workflow "
+                         "from this repository, with its relative results folder)")
     return pd.DataFrame(rows)
 
 

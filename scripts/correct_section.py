@@ -10,7 +10,8 @@ from catenary.physics.pantograph import load_pantographs
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table, settings_hash, write_table
-from catenary.stages.correction import CorrectionSettings, correct_spans, corrected_schema, profiles_schema
+from catenary.stages.correction import (CorrectionSettings, correct_spans, corrected_columns, corrected_schema,
+                                        profiles_schema)
 from catenary.stages.model_error.correction import SectionBudget
 from catenary.stages.model_error.sources import ModelErrorSettings
 
@@ -49,6 +50,8 @@ for section_id in sections:
     log.info("section %s: %d of %d spans converged", section_id, int(parts[-1][0]["converged"].sum()),
              len(parts[-1][0]))
 corrected, convergence, corrected_profiles = (pd.concat([p[k] for p in parts], ignore_index=True) for k in range(3))
+n_batch = max(catenary.span_type(t).n_droppers for t in corrected["span_type"].unique()) if len(corrected) else 0
+corrected = corrected[corrected_columns(n_batch)]   # the columns in order whatever the sections' span types
 measure_budget.table().to_parquet(snakemake.output.model_error, index=False)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
             config_hash=settings_hash(snakemake.config), kind="corrected_section")

@@ -155,7 +155,8 @@ def test_the_coverage_check_fails_on_a_short_request_and_an_expression_snakemake
 
 def test_slurm_cpus_follow_each_rules_threads():
     # cpus_per_task must equal the rule's `threads` (Snakemake sets the BLAS threads to `threads`;
-    # project, identify, diagnose and maintenance reset them to 1 in each of their `threads` processes)
+    # project, invert, identify, diagnose, maintenance and maintenance_repair reset them to 1 in
+    # each of their `threads` processes)
     threads = {}
     for smk in (ROOT / "workflow" / "rules").glob("*.smk"):
         for block in re.split(r"^(?=rule |checkpoint )", smk.read_text(), flags=re.MULTILINE)[1:]:

@@ -11,8 +11,8 @@ import copy
 import dataclasses
 
 import numpy as np
-from scipy import stats
 import pandas as pd
+from scipy import stats
 from catenary.measurement.projection import PROFILE_SCHEMA
 from catenary.measurement.registration import runner as registration
 from catenary.measurement.registration import supports
@@ -254,6 +254,11 @@ def test_a_long_lines_sections_are_corrected_in_batches_each_section_once():
     assert max(len(b) for b in batches.values()) == -(-500 // AUTO_JOBS) == 5
     assert len(batches) == 2 + -(-498 // 5) and batches["L0003+4"] == line[2:7]
     assert set(map(len, section_batches(line, sections_per_job=2).values())) == {2}
+    # an alone section in the middle ends the batch before it: a batch is consecutive sections
+    middle = section_batches(short, alone={"C03"}, sections_per_job=3)
+    assert list(middle.items())[:3] == [("C00+2", ["C00", "C01", "C02"]), ("C03", ["C03"]),
+                                        ("C04+2", ["C04", "C05", "C06"])]
+    assert [s for b in middle.values() for s in b] == short
 
 
 def test_the_inversion_is_the_same_with_two_workers(catenary, n2, monkeypatch):

@@ -122,13 +122,18 @@ def config_hash(mapping: Mapping[str, Any]) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-def settings_hash(workflow_config: Mapping[str, Any]) -> str:
-    """:func:`config_hash` of a workflow configuration without its ``results`` folder.
+#: Workflow keys that say where the outputs go or how the jobs are cut, not how the outputs are made.
+NOT_HASHED = ("results", "sections_per_correction_job")
 
-    The folder says where the outputs go, not how they were made: the same settings run into two
-    folders (a local run and a cluster run, say) write byte-identical tables.
+
+def settings_hash(workflow_config: Mapping[str, Any]) -> str:
+    """:func:`config_hash` of a workflow configuration without the keys of :data:`NOT_HASHED`.
+
+    The folder says where the outputs go and the sections per correction job how the work is
+    cut, not how the outputs were made: the same settings run into two folders (a local run and
+    a cluster run, say), in jobs cut either way, write byte-identical tables.
     """
-    return config_hash({key: value for key, value in workflow_config.items() if key != "results"})
+    return config_hash({key: value for key, value in workflow_config.items() if key not in NOT_HASHED})
 
 
 def file_metadata(*, config_hash: str, kind: str, extra: Mapping[str, str] | None = None) -> dict[str, str]:

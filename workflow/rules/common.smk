@@ -277,8 +277,7 @@ def correction_batches():
     of up to 100 sections, the model-error sections each alone."""
     from catenary.stages.correction.batches import section_batches
 
-    return section_batches(correction_sections(), model_error_sections(),
-                           (config.get("correction") or {}).get("sections_per_job"))
+    return section_batches(correction_sections(), model_error_sections(), config.get("sections_per_correction_job"))
 
 
 def correction_outputs():

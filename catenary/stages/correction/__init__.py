@@ -8,8 +8,8 @@ hundreds of jobs).
 """
 
 from .outputs import corrected_of_type, corrected_schema, correction_summary, profiles_schema
-from .runner import RunCorrection, consecutive_runs, correct_spans, measuring_conditions
+from .runner import RunCorrection, consecutive_runs, correct_spans, corrected_columns, measuring_conditions
 from .settings import CorrectionSettings
 
 __all__ = ["CorrectionSettings", "RunCorrection", "consecutive_runs", "correct_spans", "corrected_of_type",
-           "corrected_schema", "correction_summary", "measuring_conditions", "profiles_schema"]
+           "corrected_columns", "corrected_schema", "correction_summary", "measuring_conditions", "profiles_schema"]

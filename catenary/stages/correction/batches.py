@@ -6,7 +6,7 @@ job pays ≈ 1.5 s more to start a Python process, import the package and read i
 are what a cluster's scheduler is worst at. A job therefore corrects a batch of consecutive
 sections (in the sorted order of their ids) — one section per job on a line of up to
 :data:`AUTO_JOBS` sections, so that a short line keeps its parallelism and its file names, and
-``ceil(sections / AUTO_JOBS)`` per job beyond (``correction.sections_per_job`` sets it instead,
+``ceil(sections / AUTO_JOBS)`` per job beyond (``sections_per_correction_job`` sets it instead,
 for a cluster with more cores than that). A section that also measures the model-error budget
 takes 3–5 times longer than the others: it is a batch of its own, started first.
 """
@@ -17,7 +17,7 @@ import math
 
 __all__ = ["AUTO_JOBS", "batch_name", "section_batches"]
 
-#: Correction jobs a long line is cut into when ``correction.sections_per_job`` is not set.
+#: Correction jobs a long line is cut into when ``sections_per_correction_job`` is not set.
 AUTO_JOBS = 100
 
 
@@ -40,16 +40,24 @@ def section_batches(section_ids: list[str], alone: list[str] | set[str] = (),
         Sections that get a batch of their own (those measuring the model-error budget).
     sections_per_job : int, optional
         Sections per batch; default: one up to :data:`AUTO_JOBS` sections, else
-        ``ceil(len(section_ids) / AUTO_JOBS)``.
+        ``ceil(len(section_ids) / AUTO_JOBS)``. A section of ``alone`` ends the batch before it.
+
+    Returns
+    -------
+    dict of str to list of str
+        In the sorted order of the sections (:func:`batch_name` as keys).
     """
     ids = sorted(set(section_ids))
     alone = set(alone)
-    per = sections_per_job or max(1, math.ceil(len(ids) / AUTO_JOBS))
+    per = max(1, math.ceil(len(ids) / AUTO_JOBS)) if sections_per_job is None else sections_per_job
     if per < 1:
         raise ValueError(f"sections_per_job: expected an integer ≥ 1, got {per}")
     batches, current = [], []
     for section in ids:
-        if section in alone:
+        if section in alone:          # it cuts the run: a batch is consecutive sections
+            if current:
+                batches.append(current)
+                current = []
             batches.append([section])
             continue
         current.append(section)

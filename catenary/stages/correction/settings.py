@@ -30,12 +30,10 @@ class CorrectionSettings:
         Measuring speed [km/h] and static force [N] where the recording has no ``speed_kmh`` /
         ``force_n`` (otherwise each span's speed and the median force over the run of spans).
     quasi_static_start : bool
-        In dynamic mode, first iterate with quasi-static passes to a tenth of the tolerance:
+        In dynamic mode, first iterate with quasi-static passes to a tenth of the tolerance, or
+        until a pass no longer halves the largest gap (:data:`.runner.QUASI_STATIC_STALL`):
         they cost far less (the default campaign corrects in 5.2 s quasi-statically against
         63 s dynamically, on 2 processes) and take the gap norm from ≈ 12 mm to ≈ 3–4 mm of dynamic gap.
-    sections_per_job : int or None
-        Sections one correction job corrects (:mod:`.batches`); None: one per job up to 100
-        sections, enough beyond for 100 jobs.
     """
 
     mode: str = "dynamic"
@@ -46,7 +44,6 @@ class CorrectionSettings:
     speed_kmh: float = 40.0
     force_n: float = 36.0
     quasi_static_start: bool = True
-    sections_per_job: int | None = None
 
     def __post_init__(self) -> None:
         check(asdict(self), "config", "correction")

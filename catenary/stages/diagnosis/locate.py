@@ -134,6 +134,8 @@ def locate(data_w_m: np.ndarray, fit: GaussianFit, j: float, bootstrap: np.ndarr
     a = l_inv @ s @ l_inv.T
     eig = np.linalg.eigvalsh(0.5 * (a + a.T))[::-1]
     boot = np.asarray(bootstrap, dtype=float)
+    if boot.ndim != 2 or boot.shape[1] != n or boot.shape[0] < 1:
+        raise ValueError(f"bootstrap: expected eigenvalues of shape (B ≥ 1, {n}), got {boot.shape}")
     y = solve_triangular(fit.chol, (data - fit.mean).T, lower=True)
     d2 = np.einsum("ij,ij->j", y, y)
     cvm = stats.cramervonmises(d2, stats.chi2(n).cdf)

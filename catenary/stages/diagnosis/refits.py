@@ -47,8 +47,6 @@ from .problem import Fit, JointProblem, refit, with_covariance
 __all__ = ["CandidateTest", "DiagnosisContext", "base_moments_at", "continue_refit", "moment_steps", "refit_and_test",
            "refit_and_test_all", "sandwich_leaders"]
 
-# _BASE_STEP (from identification.scoring): the step, in θ, of the base coordinates' finite
-# differences for the Fisher information, the same as the scoring's.
 #: Model spans drawn per block of the eigenvalue bootstrap (:meth:`DiagnosisContext.locate`): its
 #: B data sets of ν spans are drawn and reduced to their eigenvalues a block of
 #: ``max(1, this // ν)`` data sets at a time, each block from its own random stream
@@ -56,6 +54,8 @@ __all__ = ["CandidateTest", "DiagnosisContext", "base_moments_at", "continue_ref
 #: model spans on 5 000 spans: 9.4 GB when drawn at once) and the answer is the same for any
 #: number of workers.
 BOOTSTRAP_BLOCK_DRAWS = 100_000
+# _BASE_STEP (from identification.scoring): the step, in θ, of the base coordinates' finite
+# differences for the Fisher information, the same as the scoring's.
 #: Step of a shift's finite differences, in units of its scale; a spread's variance step is (this × scale)².
 _EFFECT_STEP = 0.25
 
