@@ -1,5 +1,5 @@
-"""Rule correct_section: iterative dynamic correction of a batch of sections' spans (paper Fig. 5),
-section after section (catenary.stages.correction.batches)."""
+"""Rule correct_section: iterative dynamic correction of a batch of sections' spans (paper Fig. 5;
+catenary.stages.correction.batches), each run of consecutive spans of a section on its own."""
 
 from pathlib import Path
 
@@ -10,8 +10,7 @@ from catenary.physics.pantograph import load_pantographs
 from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table, settings_hash, write_table
-from catenary.stages.correction import (CorrectionSettings, correct_spans, corrected_columns, corrected_schema,
-                                        profiles_schema)
+from catenary.stages.correction import CorrectionSettings, correct_spans, corrected_schema, profiles_schema
 from catenary.stages.model_error.correction import SectionBudget
 from catenary.stages.model_error.sources import ModelErrorSettings
 
@@ -31,30 +30,29 @@ budget = ModelErrorSettings.from_mapping(snakemake.params.model_error)
 measured_sections = budget.measured_sections(every)
 n_max = max(catenary.span_type(t).n_droppers for t in snakemake.params.span_types)
 measure_budget = SectionBudget(catenary, budget.sources, settings.mode, settings.time_step_s, n_max, log)
-if len(sections) > 1:
-    log.info("batch %s: %d sections, %s … %s", snakemake.wildcards.batch, len(sections), sections[0], sections[-1])
-parts = []
-for section_id in sections:
-    spans = every[every["section_id"] == section_id].reset_index(drop=True)
-    ids = spans["span_id"].astype(str).tolist()
-    profiles = pd.concat([read_table(path, filters=[("span_id", "in", ids)]) for path in snakemake.input.profiles],
-                         ignore_index=True)  # this section's rows only: the job's cost does not grow with the line
-    log.info("section %s: %d spans, %s pass, tolerance %.2f mm", section_id, len(spans), settings.mode,
-             settings.tolerance_m * 1e3)
-    measure = section_id in measured_sections
-    if budget.enabled and not measure:
-        log.info("section %s: model-error budget measured on other sections (model_error.sections_per_span_type %d)",
-                 section_id, budget.sections_per_span_type)
-    parts.append(correct_spans(spans, catenary, pantograph, settings, log=log, report=report,
-                               after_run=measure_budget if measure else None, profiles=profiles))
-    log.info("section %s: %d of %d spans converged", section_id, int(parts[-1][0]["converged"].sum()),
-             len(parts[-1][0]))
-corrected, convergence, corrected_profiles = (pd.concat([p[k] for p in parts], ignore_index=True) for k in range(3))
-n_batch = max(catenary.span_type(t).n_droppers for t in corrected["span_type"].unique()) if len(corrected) else 0
-corrected = corrected[corrected_columns(n_batch)]   # the columns in order whatever the sections' span types
+spans = every[every["section_id"].isin(sections)].reset_index(drop=True)
+ids = spans["span_id"].astype(str).tolist()
+profiles = pd.concat([read_table(path, filters=[("span_id", "in", ids)]) for path in snakemake.input.profiles],
+                     ignore_index=True)  # this batch's rows only: the job's cost does not grow with the line
+log.info("%s: %d sections, %d spans, %s pass, tolerance %.2f mm; model-error budget measured on %s",
+         snakemake.wildcards.batch, len(sections), len(spans), settings.mode, settings.tolerance_m * 1e3,
+         ", ".join(s for s in sections if s in measured_sections) or "other sections" if budget.enabled
+         else "no section (model_error disabled)")
+
+
+def measure_if_listed(rows, *args):
+    """The model-error budget of a run of spans, on the sections that measure it only."""
+    if rows["section_id"].iloc[0] in measured_sections:
+        measure_budget(rows, *args)
+
+
+corrected, convergence, corrected_profiles = correct_spans(spans, catenary, pantograph, settings, log=log,
+                                                           report=report, after_run=measure_if_listed,
+                                                           profiles=profiles)
 measure_budget.table().to_parquet(snakemake.output.model_error, index=False)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
             config_hash=settings_hash(snakemake.config), kind="corrected_section")
 write_table(corrected_profiles, Path(snakemake.output.profiles), profiles_schema(),
             config_hash=settings_hash(snakemake.config), kind="corrected_profiles_section")
 convergence.to_csv(snakemake.output.convergence, index=False)
+log.info("%s: %d of %d spans converged", snakemake.wildcards.batch, int(corrected["converged"].sum()), len(corrected))

@@ -233,7 +233,7 @@ class PseudoForceSolver:
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """``K⁻¹ rhs`` for one right-hand side (the compiled banded solve: at the half-bandwidth 5
         of a section's 9 131 unknowns 33 µs, against 228 µs for LAPACK's ``dpbtrs``, whose
-        generic loops and call dominate at so narrow a band; 2026-11-28) or several (``dpbtrs``)."""
+        generic loops and call dominate at so narrow a band; one-off measurements, 2026-11-28) or several (``dpbtrs``)."""
         rhs = np.asarray(rhs, dtype=float)
         if rhs.shape[0] != self.rows.shape[0]:
             raise ValueError(f"rhs: expected {self.rows.shape[0]} rows (the free DOFs), got {rhs.shape[0]}")

@@ -21,7 +21,7 @@ rule correct_section:
         batch="[^/]+",
     # A section that also measures the model-error budget takes 3–5 times longer than the others:
     # a batch of its own, started first, it runs beside them instead of alone at the end, one core idle.
-    priority: lambda wc: 1 if set(correction_batches()[wc.batch]) & set(model_error_sections()) else 0
+    priority: lambda wc: 1 if wc.batch in model_error_sections() else 0
     params:
         sections=lambda wc: correction_batches()[wc.batch],
         correction=config["correction"],

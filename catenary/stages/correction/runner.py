@@ -575,7 +575,7 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
 
 def corrected_columns(n_droppers: int) -> list[str]:
     """The corrected table's columns, in order, for spans of at most ``n_droppers`` droppers
-    (:func:`correct_spans`; a batch of sections of several span types takes the largest)."""
+    (:func:`correct_spans`, whose spans may be of several span types: it takes the largest)."""
     return CORRECTED_BASE_COLUMNS + [f"w{i + 1}_m" for i in range(n_droppers)] + [
         f"residual_w{i + 1}_m" for i in range(n_droppers)] + [f"dropper_{i + 1}_force_n" for i in range(n_droppers)] + [
         "iterations", "gap_norm_m", "converged", "slack_droppers", "reason"]
