@@ -71,7 +71,8 @@ log.info("%s: measured besides W: %s; line: %s; %d survey rows not on this type'
          {q: int(np.isfinite(observations.values[:, i]).sum()) for i, q in enumerate(observations.columns)} or "nothing",
          [f"{o.quantity} {o.value:.2f} ± {o.std:.2f}" for o in observations.line] or "nothing", len(unused))
 profile_check = profile_check_of(snakemake.input.corrected, snakemake.input.profiles, span_type, catenary, pantograph,
-                                 correction, settings.span_check().profile, measuring.speed_m_s, measuring.force_n)
+                                 correction, settings.span_check().profile, measuring.speed_m_s, measuring.force_n,
+                                 workers=snakemake.threads)
 profile, noise = profile_check.table, profile_check.noise
 log.info("%s: whole profiles of %d spans read between the droppers: noise %.3f mm per sample (AR(1) %.2f, every "
          "%.2f m)", span_type.name, len(profile), 1e3 * noise.std_m, noise.ar1, noise.step_m)

@@ -274,7 +274,7 @@ def test_the_sandwich_of_the_verdicts_candidates_gives_the_verdict_of_every_sand
                                     True, 1, 0.0)
 
     monkeypatch.setattr(refits, "_tested", sandwiched)
-    ctx = SimpleNamespace(settings=SimpleNamespace(level=level), problem=lambda effects: None)
+    ctx = SimpleNamespace(settings=SimpleNamespace(level=level), problem=lambda effects: None, workers=1)
     tests = [test("a", -100.0, 1e-3), test("b", -90.0, 1e-4), test("c", -80.0, 1e-5), test("d", -70.0, 0.5)]
     lazy = refits.sandwich_leaders(ctx, (), None, {t.effect: (t, t) for t in tests}, 4)
     every = {t.effect: sandwiched(ctx, None, None, t, 4, sandwich=True)[0] for t in tests}

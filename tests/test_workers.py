@@ -276,3 +276,66 @@ def test_the_inversion_is_the_same_with_two_workers(catenary, n2, monkeypatch):
     assert one.span_id.tolist() == two.span_id.tolist() == [i for i in ids if i != "s4"]
     assert np.array_equal(one.dropper_lengths_m, two.dropper_lengths_m)
     assert one.left_out.equals(two.left_out) and one.left_out["span_id"].tolist() == ["s4"]
+
+
+def test_the_profile_test_is_the_same_with_two_workers_and_reads_runs_in_any_row_order():
+    # Each span's fits, scan and p-values are its own (blocks of SPANS_PER_BLOCK spans): the
+    # table and the noise are the same bit for bit with 2 workers. 300 spans (two blocks at
+    # 250, one shorter), two runs on some spans, one with a point load, rows shuffled: a span's
+    # runs are read in the order they first appear and each run's samples by x, as a groupby
+    # per span and run of the unshuffled table reads them (the independent computation here).
+    from catenary.stages.diagnosis import profile_check
+    from .test_profile_check import DROPPERS_M, LENGTH_M, T_CW_N, synthetic_profiles
+
+    profiles = synthetic_profiles(300, seed=5, load={7: (7.1, 30.0)})
+    second = profiles[profiles["span_id"] < "S040"].assign(run_id="again")
+    second["height_m"] += 1e-4
+    profiles = pd.concat([profiles, second], ignore_index=True)
+    shuffled = profiles.sample(frac=1.0, random_state=3).reset_index(drop=True)
+    settings = profile_check.ProfileSettings(calibration_draws=300)
+    one, noise_one = profile_check.profile_tests(shuffled, LENGTH_M, DROPPERS_M, T_CW_N, settings)
+    two, noise_two = profile_check.profile_tests(shuffled, LENGTH_M, DROPPERS_M, T_CW_N, settings, workers=2)
+    pd.testing.assert_frame_equal(one, two, check_exact=True)
+    assert noise_one == noise_two
+    spans = profile_check._span_data(shuffled)
+    order = shuffled.groupby("span_id", sort=False)
+    assert [s.span_id for s in spans] == list(order.groups)
+    for span in spans:
+        rows = shuffled[shuffled["span_id"] == span.span_id]
+        runs = list(rows.groupby("run_id", sort=False))
+        assert len(span.runs) == len(runs)
+        for (x, y, _), (_, run) in zip(span.runs, runs):
+            run = run.sort_values("x_m", kind="stable")
+            np.testing.assert_array_equal(x, run["x_m"].to_numpy())
+            np.testing.assert_array_equal(y, (run["height_m"] - run["simulated_height_m"]).to_numpy())
+    assert one.loc[one["span_id"] == "S007", "p_profile"].item() < 1e-3       # the point load is still found
+
+
+def test_the_hessian_and_scores_are_the_same_with_two_workers_and_recorded_in_order(catenary, n2, start):  # noqa: F811
+    # The finite-difference Hessian's and the sandwich's J evaluations in worker processes give
+    # the same standard errors bit for bit, and the problem counts and traces them as if
+    # evaluated one after the other (a worker's own bookkeeping stays in the worker).
+    from catenary.stages.identification.fit import ScaledProblem, observed_information
+
+    model = make_likelihood(n2, catenary, np.zeros((1, 9)), start=start, n_samples=2).model
+    means, sigmas = _laws(start, 818.0)
+    data = simulate_deflections(model, means, sigmas, 40, seed=3, system_height_mode=MODE)
+    lik = make_likelihood(n2, catenary, data, start=start, n_samples=600, seed=1, system_height_mode=MODE)
+    one = identify(lik, start, mast_pairs=np.array([[k, k + 1] for k in range(39)]), covariance="sandwich")
+    two = identify(lik, start, mast_pairs=np.array([[k, k + 1] for k in range(39)]), covariance="sandwich", workers=2)
+    np.testing.assert_array_equal(one.theta_covariance, two.theta_covariance)
+    assert [(e.mu_se, e.sigma_se) for e in one.estimates] == [(e.mu_se, e.sigma_se) for e in two.estimates]
+    assert one.n_hessian_evaluations == two.n_hessian_evaluations
+    # The Hessian of a quadratic is exact whatever evaluates it; the trace keeps the order.
+    problems = [ScaledProblem(lik, start, np.array([9, 10]), np.array([10])) for _ in range(2)]
+    theta = np.array([0.1, -0.2, 0.05])
+    a = observed_information(problems[0].j, theta, 0.01)
+    b = observed_information(problems[1].j, theta, 0.01, j_many=lambda x: [v.j for v in problems[1].evaluate_many(x, 2)])
+    np.testing.assert_array_equal(a, b)
+    assert problems[0].n_evaluations == problems[1].n_evaluations == 1 + 2 * 3 + 4 * 3
+    for p, q in zip(problems[0].trace, problems[1].trace):
+        np.testing.assert_array_equal(p[0], q[0])
+        assert p[3] == q[3]
+    quadratic = np.array([[2.0, 0.5, 0.0], [0.5, 1.0, 0.2], [0.0, 0.2, 3.0]])
+    np.testing.assert_allclose(observed_information(lambda t: -0.5 * t @ quadratic @ t, theta, 0.01), quadratic,
+                               rtol=1e-9)

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from catenary.plumbing.workers import map_blocks
+
 from .config import Catenary, SpanType
 from .dropper_table import dropper_lengths_for_cw_heights, nominal_dropper_lengths
 from .dynamics import CatenaryDynamics, quasi_static_heights, run_pantograph
@@ -161,7 +163,7 @@ def force_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantogr
 
 def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,
                       x_m: np.ndarray, mode: str = "dynamic", time_step_s: float | None = None,
-                      direction: int = 1, neighbours: int = 2, step_m: float = 1e-3) -> np.ndarray:
+                      direction: int = 1, neighbours: int = 2, step_m: float = 1e-3, workers: int = 1) -> np.ndarray:
     """Sensitivity of a span's measured profile to its static CW at its droppers and masts [m/m].
 
     The central span of ``2 neighbours + 1`` spans of ``span_type`` at the nominal table is run
@@ -180,6 +182,9 @@ def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Panto
         Abscissae from the central span's left mast [m], within the span.
     direction : {1, -1}
         Direction of travel of the measuring car.
+    workers : int
+        Processes over the raised support points (:func:`catenary.plumbing.workers.map_blocks`):
+        each column's pass is its own, so the columns are the same for any number.
 
     Returns
     -------
@@ -202,17 +207,19 @@ def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Panto
     base = run(section)
     heights = StaticModel(section, catenary).solve().cw_height_at(section.dropper_chainage_m)
     n = span_type.n_droppers
-    columns = []
-    def raised_dropper(i: int) -> np.ndarray:
-        target = heights.copy()
-        target[i] += step_m
-        return (run(dropper_lengths_for_cw_heights(section, catenary, target).section) - base) / step_m
 
-    columns = [raised_dropper(i) for i in range(neighbours * n, (neighbours + 1) * n)]
-    for mast in (neighbours, neighbours + 1):
+    def raised(k: int) -> np.ndarray:
+        """Column k: a dropper of the central span (k < n), else its left or right mast."""
+        if k < n:
+            target = heights.copy()
+            target[neighbours * n + k] += step_m
+            return (run(dropper_lengths_for_cw_heights(section, catenary, target).section) - base) / step_m
         support = section.cw_support_heights_m.copy()
-        support[mast] += step_m
-        raised = section.with_cw_support_heights(support)
-        columns.append((run(dropper_lengths_for_cw_heights(raised, catenary, heights).section) - base) / step_m)
+        support[neighbours + k - n] += step_m
+        moved = section.with_cw_support_heights(support)
+        return (run(dropper_lengths_for_cw_heights(moved, catenary, heights).section) - base) / step_m
+
+    columns = [c for block in map_blocks(lambda a, b: [raised(k) for k in range(a, b)], n + 2, workers, 1)
+               for c in block]
     return np.column_stack(columns)
 

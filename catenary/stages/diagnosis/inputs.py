@@ -72,26 +72,31 @@ class ProfileCheck:
 
 def profile_check_of(corrected_path, profiles_path, span_type: SpanType, catenary: Catenary, pantograph: Pantograph,
                      correction: CorrectionSettings, settings: ProfileSettings, speed_m_s: float,
-                     force_n: float) -> ProfileCheck:
+                     force_n: float, workers: int = 1) -> ProfileCheck:
     """The profile test of every corrected span of ``span_type``
     (:func:`.profile_check.profile_tests`): the measuring pass's response to the static CW at the
     knots for each direction the runs took (:func:`catenary.physics.measuring.profile_influence`, at the
     median speed and force, with the correction's pantograph and mode), each run's direction, and
-    the final model's dropper forces (the smallest over the span's runs)."""
+    the final model's dropper forces (the smallest over the span's runs); the spans' tests in
+    ``workers`` processes (the same table for any number)."""
     corrected = read_table(corrected_path)
     profiles = read_table(profiles_path)
     directions = {(str(r.span_id), str(r.run_id)): int(r.direction) for r in corrected.itertuples()}
     x = np.linspace(0.0, span_type.length_m, int(round(span_type.length_m / INFLUENCE_STEP_M)) + 1)
     influences = {d: Influence.from_measuring(x, profile_influence(
         span_type, catenary, pantograph.with_static_force(force_n), speed_m_s=speed_m_s, x_m=x, mode=correction.mode,
-        time_step_s=correction.time_step_s, direction=d), span_type.n_droppers)
+        time_step_s=correction.time_step_s, direction=d, workers=workers), span_type.n_droppers)
         for d in sorted(set(directions.values()))}
     force_columns = [f"dropper_{i + 1}_force_n" for i in range(span_type.n_droppers)]
     forces = {}
     if all(c in corrected.columns for c in force_columns):
-        for span_id, rows in corrected.groupby("span_id"):
-            forces[str(span_id)] = rows[force_columns].to_numpy(dtype=float).min(axis=0)
+        code, spans = pd.factorize(corrected["span_id"], sort=True)
+        order = np.argsort(code, kind="stable")
+        starts = np.flatnonzero(np.r_[True, np.diff(code[order]) != 0])
+        # the smallest over each span's rows (NaN if one is NaN, as numpy's min)
+        smallest = np.minimum.reduceat(corrected[force_columns].to_numpy(dtype=float)[order], starts, axis=0)
+        forces = {str(span): row for span, row in zip(spans[code[order][starts]], smallest)}
     table, noise = profile_tests(profiles, span_type.length_m, span_type.dropper_positions_m,
                                  span_type.contact_tension_n, settings, influences=influences, directions=directions,
-                                 dropper_forces_n=forces)
+                                 dropper_forces_n=forces, workers=workers)
     return ProfileCheck(table, noise, profiles, influences, directions)

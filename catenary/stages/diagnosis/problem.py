@@ -21,7 +21,8 @@ import numpy as np
 
 from catenary.stages.identification.dependence import robust_covariance, widening
 from catenary.stages.identification.design import RandomInput
-from catenary.stages.identification.fit import ParameterBox, ScaledProblem, observed_covariance, run_nelder_mead
+from catenary.stages.identification.fit import (ParameterBox, ScaledProblem, evaluate_points, observed_covariance,
+                                                run_nelder_mead)
 from catenary.stages.identification.likelihood import Likelihood, LikelihoodValue
 from catenary.stages.identification.scoring import fisher_scoring
 from .candidates import CANDIDATES, CandidateParameter
@@ -80,11 +81,24 @@ class JointProblem:
 
     def evaluate(self, theta: np.ndarray) -> LikelihoodValue:
         theta = np.asarray(theta, dtype=float)
-        value = self.likelihood.evaluate(*self.laws(theta), self.magnitudes(theta))
+        return self._record(theta, self._value(theta))
+
+    def _value(self, theta: np.ndarray) -> LikelihoodValue:
+        return self.likelihood.evaluate(*self.laws(theta), self.magnitudes(theta))
+
+    def _record(self, theta: np.ndarray, value: LikelihoodValue) -> LikelihoodValue:
+        """Count an evaluation at θ and keep the best."""
         self.n_evaluations += 1
         if value.j > self.best[1]:
             self.best = (theta.copy(), value.j)
         return value
+
+    def evaluate_many(self, thetas, workers: int = 1) -> list[LikelihoodValue]:
+        """:meth:`evaluate` at each θ of ``thetas`` in ``workers`` processes
+        (:func:`catenary.stages.identification.fit.evaluate_points`), counted and the best kept
+        here in their order, as one after the other."""
+        thetas = [np.asarray(t, dtype=float) for t in thetas]
+        return [self._record(t, v) for t, v in zip(thetas, evaluate_points(self._value, thetas, workers))]
 
     def j(self, theta: np.ndarray) -> float:
         return self.evaluate(theta).j
@@ -93,7 +107,13 @@ class JointProblem:
         """``ln p`` of each span's data at θ and, with observations besides W, the line's term
         (line quantities, errors shared by every span) as one more independent unit (what the
         sandwich sums over); None where J is not finite."""
-        value = self.evaluate(theta)
+        return self._log_densities(self.evaluate(theta))
+
+    def log_densities_many(self, thetas, workers: int = 1) -> list:
+        """:meth:`log_densities` at each θ of ``thetas`` in ``workers`` processes."""
+        return [self._log_densities(v) for v in self.evaluate_many(thetas, workers)]
+
+    def _log_densities(self, value: LikelihoodValue):
         if value.log_density is None or self.likelihood.observations is None:
             return value.log_density
         return np.r_[value.log_density, value.line_log_density]
@@ -215,9 +235,10 @@ def refit(problem: JointProblem, theta0: np.ndarray, box: ParameterBox, *, base_
 
 
 def with_covariance(fit: Fit, problem: JointProblem, box: ParameterBox, *, step: float = 0.01,
-                    mast_pairs: np.ndarray | None = None) -> Fit:
+                    mast_pairs: np.ndarray | None = None, workers: int = 1) -> Fit:
     """``fit`` with the observed-information covariance (interior coordinates), widened by the
-    sandwich over spans sharing a mast where that is wider (as the identification does)."""
+    sandwich over spans sharing a mast where that is wider (as the identification does); the
+    J evaluations of both in ``workers`` processes (the same covariance for any number)."""
     lo, _ = problem.bounds(box)
     nm = problem.base.free_mean_idx.size
     interior = np.ones(fit.theta.size, dtype=bool)
@@ -225,10 +246,11 @@ def with_covariance(fit: Fit, problem: JointProblem, box: ParameterBox, *, step:
     for k, (_, p) in enumerate(problem.coordinates):
         if p.kind == "shift":
             interior[problem.n_base + k] = True
-    cov, _ = observed_covariance(problem, fit.theta, step, interior)
+    cov, _ = observed_covariance(problem, fit.theta, step, interior, workers)
     factor = np.ones(fit.theta.size)
     if mast_pairs is not None and np.all(np.isfinite(cov[np.ix_(interior, interior)])):
-        robust = robust_covariance(problem.log_densities, fit.theta, step, cov, interior, mast_pairs)
+        robust = robust_covariance(problem.log_densities, fit.theta, step, cov, interior, mast_pairs,
+                                   log_density_many=lambda x: problem.log_densities_many(x, workers))
         factor = widening(cov, robust)
     d = np.sqrt(factor)
     return Fit(**{**fit.__dict__, "covariance": cov * np.outer(d, d), "variance_widening": factor,

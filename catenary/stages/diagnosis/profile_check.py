@@ -55,6 +55,8 @@ import numpy as np
 import pandas as pd
 from scipy import special, stats
 
+from catenary.plumbing.workers import map_blocks
+
 __all__ = ["Influence", "ProfileNoise", "ProfileSettings", "base_columns", "estimate_noise", "hunter_max_normal_sf",
            "profile_tests", "tent_columns"]
 
@@ -216,19 +218,30 @@ class _SpanData:
 
 def _span_data(profiles: pd.DataFrame, influences: dict | None = None,
                directions: dict | None = None) -> list[_SpanData]:
-    out = []
+    """Each span's runs (in the order they first appear), each run's samples sorted by ``x_m``
+    (stably): one sort of the whole table, then cut at the runs' ends."""
     residual = (profiles["height_m"] - profiles["simulated_height_m"]).to_numpy(dtype=float)
-    frame = profiles.assign(_y=residual)
-    frame = frame[np.isfinite(frame["_y"])]
+    keep = np.isfinite(residual)
+    span_code, span_ids = pd.factorize(profiles["span_id"][keep])
+    run_of, run_ids = pd.factorize(profiles["run_id"][keep])
+    run_code, _ = pd.factorize(span_code.astype(np.int64) * max(len(run_ids), 1) + run_of)  # (span, run) pairs
+    x = profiles["x_m"].to_numpy(dtype=float)[keep]
+    y = residual[keep]
+    order = np.lexsort((x, run_code, span_code))
+    if np.any(order != np.arange(order.size)):       # a recording's rows are usually in order already
+        x, y, run_code, span_code, run_of = x[order], y[order], run_code[order], span_code[order], run_of[order]
+    ends = np.flatnonzero(np.diff(run_code)) + 1
+    starts = np.r_[0, ends] if x.size else np.zeros(0, dtype=int)
+    stops = np.r_[ends, x.size] if x.size else np.zeros(0, dtype=int)
     influences = influences or {}
     directions = directions or {}
-    for span_id, rows in frame.groupby("span_id", sort=False):
-        runs = []
-        for run_id, run in rows.groupby("run_id", sort=False):
-            run = run.sort_values("x_m", kind="stable")
-            influence = influences.get(int(directions.get((str(span_id), str(run_id)), 1)))
-            runs.append((run["x_m"].to_numpy(dtype=float), run["_y"].to_numpy(dtype=float), influence))
-        out.append(_SpanData(str(span_id), runs))
+    out: list[_SpanData] = []
+    for a, b in zip(starts, stops):
+        span_id, run_id = str(span_ids[span_code[a]]), str(run_ids[run_of[a]])
+        if not out or out[-1].span_id != span_id:
+            out.append(_SpanData(span_id, []))
+        influence = influences.get(int(directions.get((span_id, run_id), 1)))
+        out[-1].runs.append((x[a:b].copy(), y[a:b].copy(), influence))
     return out
 
 
@@ -238,25 +251,48 @@ def _step(spans: list[_SpanData]) -> float:
     return float(np.median(steps)) if steps.size else 0.1
 
 
-def estimate_noise(spans: list[_SpanData], knots_m: np.ndarray) -> ProfileNoise:
+#: Spans per block of the worker processes of :func:`profile_tests` (any number of workers
+#: gives the same blocks, and each span's arithmetic is its own: the same table bit for bit).
+SPANS_PER_BLOCK = 250
+
+
+def _per_span(function, spans: list[_SpanData], workers: int) -> list:
+    """``function(span)`` of every span, in order, over blocks of :data:`SPANS_PER_BLOCK` spans
+    in ``workers`` processes (:func:`catenary.plumbing.workers.map_blocks`)."""
+    blocks = map_blocks(lambda start, stop: [function(s) for s in spans[start:stop]], len(spans), workers,
+                        SPANS_PER_BLOCK)
+    return [value for block in blocks for value in block]
+
+
+def estimate_noise(spans: list[_SpanData], knots_m: np.ndarray, workers: int = 1) -> ProfileNoise:
     """The line's AR(1) correlation (pooled lag-1 autocorrelation of the base fits' residuals
     over consecutive samples) and innovation standard deviation (median over spans of their
-    prewhitened ``RSS / dof``, debiased by the median of χ²_dof / dof)."""
+    prewhitened ``RSS / dof``, debiased by the median of χ²_dof / dof). Each span's fits in
+    ``workers`` processes, their sums taken here in the spans' order: the same noise for any
+    number."""
     step = _step(spans)
-    num = den = 0.0
-    for s in spans:
+
+    def lag_products(s: _SpanData) -> list[tuple[float, float]]:
+        out = []
         for x, y, influence in s.runs:
             b = base_columns(x, knots_m, influence)
             e = y - b @ np.linalg.lstsq(b, y, rcond=None)[0]
             cont = _segments(x, step)
-            num += float(np.sum(e[1:][cont[1:]] * e[:-1][cont[1:]]))
-            den += float(np.sum(e * e))
+            out.append((float(np.sum(e[1:][cont[1:]] * e[:-1][cont[1:]])), float(np.sum(e * e))))
+        return out
+
+    num = den = 0.0
+    for runs in _per_span(lag_products, spans, workers):
+        for lag, square in runs:
+            num += lag
+            den += square
     rho = float(np.clip(num / den, -0.9, 0.9)) if den > 0 else 0.0
-    ratios = []
-    for s in spans:
+
+    def ratio(s: _SpanData) -> float | None:
         fit = _fit_span(s, knots_m, rho, step)
-        if fit.dof > 0:
-            ratios.append(fit.rss / stats.chi2.median(fit.dof))
+        return fit.rss / stats.chi2.median(fit.dof) if fit.dof > 0 else None
+
+    ratios = [r for r in _per_span(ratio, spans, workers) if r is not None]
     std = float(np.sqrt(np.median(ratios))) if ratios else float("nan")
     return ProfileNoise(std_m=std, ar1=rho, step_m=step)
 
@@ -375,9 +411,10 @@ def local_scale(t: np.ndarray, centres_m: np.ndarray, knots_m: np.ndarray, half_
 
 
 def _calibration(knots_m: np.ndarray, centres: np.ndarray, n_runs: int, noise: ProfileNoise,
-                 settings: ProfileSettings, influence: "Influence | None" = None) -> np.ndarray:
+                 settings: ProfileSettings, influence: "Influence | None" = None, workers: int = 1) -> np.ndarray:
     """Sorted null draws of ``min(p_global, p_local)`` on a representative design: the span's
-    runs sampled every ``noise.step_m``, white innovations of the line's σ."""
+    runs sampled every ``noise.step_m``, white innovations of the line's σ (drawn here, in
+    order; their Hunter–Worsley bounds in ``workers`` processes, the same for any number)."""
     rng = np.random.default_rng([settings.seed, n_runs])
     x = np.arange(0.0, knots_m[-1] + 1e-9, noise.step_m)
     template = _fit_span(_SpanData("", [(x, np.zeros_like(x), influence)] * n_runs), knots_m, 0.0, noise.step_m)
@@ -387,17 +424,18 @@ def _calibration(knots_m: np.ndarray, centres: np.ndarray, n_runs: int, noise: P
     rho_chain = np.r_[0.0, np.einsum("ij,ij->j", unit[:, 1:], unit[:, :-1])]
     bay = np.searchsorted(knots_m, centres, side="right")
     links = np.r_[False, bay[1:] == bay[:-1]]
-    out = np.empty(settings.calibration_draws)
+    p_global, t_max = np.empty(settings.calibration_draws), np.empty(settings.calibration_draws)
     for start in range(0, settings.calibration_draws, 500):
         m = min(500, settings.calibration_draws - start)
         z = rng.standard_normal((template.y.size, m))
         e = z - template.q @ (template.q.T @ z)
         chi2 = np.einsum("ij,ij->j", e, e)
-        p_global = stats.chi2.sf(chi2, template.dof)
-        t_max = np.abs(unit.T @ e).max(axis=0)
-        p_local = np.array([hunter_max_normal_sf(float(t), rho_chain, centres.size, links) for t in t_max])
-        out[start:start + m] = np.minimum(p_global, p_local)
-    return np.sort(out)
+        p_global[start:start + m] = stats.chi2.sf(chi2, template.dof)
+        t_max[start:start + m] = np.abs(unit.T @ e).max(axis=0)
+    p_local = np.concatenate(map_blocks(
+        lambda a, b: np.array([hunter_max_normal_sf(float(t), rho_chain, centres.size, links) for t in t_max[a:b]]),
+        t_max.size, workers, 500))
+    return np.sort(np.minimum(p_global, p_local))
 
 
 def combined_p(p_min: float, null_sorted: np.ndarray, min_count: int = 40) -> float:
@@ -414,7 +452,7 @@ def profile_tests(profiles: pd.DataFrame, length_m: float, dropper_positions_m: 
                   contact_tension_n: float, settings: ProfileSettings | None = None,
                   noise: ProfileNoise | None = None, influences: dict | None = None,
                   directions: dict | None = None,
-                  dropper_forces_n: dict | None = None) -> tuple[pd.DataFrame, ProfileNoise]:
+                  dropper_forces_n: dict | None = None, workers: int = 1) -> tuple[pd.DataFrame, ProfileNoise]:
     """The profile test of every span in ``profiles`` (module docs).
 
     Parameters
@@ -438,6 +476,9 @@ def profile_tests(profiles: pd.DataFrame, length_m: float, dropper_positions_m: 
         Static dropper tensions of each span in the correction's final model [N] (the smallest
         over its runs): the bays next to one below ``settings.slack_risk_force_n`` are not
         scanned for a point load.
+    workers : int
+        Processes over the spans (blocks of :data:`SPANS_PER_BLOCK`): each span's fits, scan and
+        p-values are its own, so the table is the same, bit for bit, for any number.
 
     Returns
     -------
@@ -454,10 +495,10 @@ def profile_tests(profiles: pd.DataFrame, length_m: float, dropper_positions_m: 
     spans = _span_data(profiles, influences, directions)
     if not spans:
         return pd.DataFrame(columns=list(PROFILE_TEST_COLUMNS)), noise or ProfileNoise(float("nan"), 0.0, 0.1)
-    noise = noise or estimate_noise(spans, knots)
+    noise = noise or estimate_noise(spans, knots, workers)
     centres = scan_positions(knots, settings.grid_step_m, settings.knot_clearance_m)
-    scans = [_scan(_fit_span(s, knots, noise.ar1, noise.step_m), knots, centres, noise.ar1, noise.std_m)
-             for s in spans]
+    scans = _per_span(lambda s: _scan(_fit_span(s, knots, noise.ar1, noise.step_m), knots, centres, noise.ar1,
+                                      noise.std_m), spans, workers)
     n_runs = np.array([len(s.runs) for s in spans])
     centre_bay = np.clip(np.searchsorted(knots, centres, side="right") - 1, 0, knots.size - 2)
     usable, unread = [], []
@@ -467,31 +508,39 @@ def profile_tests(profiles: pd.DataFrame, length_m: float, dropper_positions_m: 
         bays = np.unique(np.concatenate([weak, weak + 1])) if weak.size else np.zeros(0, int)
         usable.append(scan.scanned & ~np.isin(centre_bay, bays))
         unread.append(int(bays.size))
-    rows = []
+    # Each span's statistic standardised by the line's centre and scale at each position (over
+    # the spans of as many runs), then its p-values, span by span.
+    t_std = [np.empty(0)] * len(spans)
+    null = {}
     for runs in np.unique(n_runs):
         group = np.flatnonzero(n_runs == runs)
         t = np.array([np.where(usable[k], scans[k].t, np.nan) for k in group])
         centre, scale = local_scale(t, centres, knots, settings.scale_half_window_m, settings.min_spans_for_scale)
-        null = _calibration(knots, centres, int(runs), noise, settings, next(iter((influences or {}).values()), None))
-        for k, t_std in zip(group, (t - centre) / scale):
-            scan = scans[k]
-            finite = np.isfinite(t_std)
-            j = int(np.nanargmax(np.abs(t_std))) if finite.any() else 0
-            t_max = float(t_std[j]) if finite.any() else 0.0
-            links = scan.links & finite & np.r_[False, finite[:-1]]
-            p_local = (hunter_max_normal_sf(abs(t_max), scan.rho_chain, int(finite.sum()), links)
-                       if finite.any() else 1.0)
-            p_profile = combined_p(min(scan.p_global, p_local), null)
-            x0 = float(centres[j]) if finite.any() else float("nan")
-            height = float(scan.height_m[j]) if finite.any() else float("nan")
-            bay = int(np.clip(np.searchsorted(knots, x0, side="right") - 1, 0, knots.size - 2)) if finite.any() else 0
-            a, b = knots[bay], knots[bay + 1]
-            load = -height * contact_tension_n * (b - a) / ((x0 - a) * (b - x0)) if finite.any() else float("nan")
-            rows.append({"span_id": spans[k].span_id, "n_runs": int(runs),
-                         "n_samples": int(sum(x.size for x, _, _ in spans[k].runs)), "dof": scan.dof, "chi2": scan.chi2,
-                         "p_global": scan.p_global, "t_max": t_max, "p_local": p_local, "p_profile": p_profile,
-                         "peak_x_m": x0, "peak_height_m": height, "peak_load_n": load,
-                         "bays_not_scanned": unread[k]})
+        null[int(runs)] = _calibration(knots, centres, int(runs), noise, settings,
+                                       next(iter((influences or {}).values()), None), workers)
+        for k, row in zip(group, (t - centre) / scale):
+            t_std[k] = row
+
+    def span_row(k: int) -> dict:
+        scan, t_k = scans[k], t_std[k]
+        finite = np.isfinite(t_k)
+        j = int(np.nanargmax(np.abs(t_k))) if finite.any() else 0
+        t_max = float(t_k[j]) if finite.any() else 0.0
+        links = scan.links & finite & np.r_[False, finite[:-1]]
+        p_local = hunter_max_normal_sf(abs(t_max), scan.rho_chain, int(finite.sum()), links) if finite.any() else 1.0
+        p_profile = combined_p(min(scan.p_global, p_local), null[int(n_runs[k])])
+        x0 = float(centres[j]) if finite.any() else float("nan")
+        height = float(scan.height_m[j]) if finite.any() else float("nan")
+        bay = int(np.clip(np.searchsorted(knots, x0, side="right") - 1, 0, knots.size - 2)) if finite.any() else 0
+        a, b = knots[bay], knots[bay + 1]
+        load = -height * contact_tension_n * (b - a) / ((x0 - a) * (b - x0)) if finite.any() else float("nan")
+        return {"span_id": spans[k].span_id, "n_runs": int(n_runs[k]),
+                "n_samples": int(sum(x.size for x, _, _ in spans[k].runs)), "dof": scan.dof, "chi2": scan.chi2,
+                "p_global": scan.p_global, "t_max": t_max, "p_local": p_local, "p_profile": p_profile,
+                "peak_x_m": x0, "peak_height_m": height, "peak_load_n": load, "bays_not_scanned": unread[k]}
+
+    rows = [row for block in map_blocks(lambda start, stop: [span_row(k) for k in range(start, stop)], len(spans),
+                                        workers, SPANS_PER_BLOCK) for row in block]
     order = {s.span_id: i for i, s in enumerate(spans)}
     table = pd.DataFrame(rows, columns=list(PROFILE_TEST_COLUMNS))
     return table.sort_values("span_id", key=lambda c: c.map(order)).reset_index(drop=True), noise

@@ -370,11 +370,12 @@ def refit_and_test(ctx: DiagnosisContext, current_effects: tuple[str, ...], fit:
 
 
 def _tested(ctx: DiagnosisContext, problem: JointProblem, fit: Fit, new: Fit, n_tests: int, *,
-            sandwich: bool = False, **screen) -> tuple[CandidateTest, Fit]:
+            sandwich: bool = False, workers: int = 1, **screen) -> tuple[CandidateTest, Fit]:
     """The likelihood-ratio test of the refit ``new`` of M + E (``problem``) against M's ``fit``;
     ``screen`` carries the fields computed at the null (detectable, score). With ``sandwich``,
     a candidate significant on the independence likelihood is tested again with its LR divided
-    by the sandwich factor of its parameters, and gets standard errors."""
+    by the sandwich factor of its parameters, and gets standard errors (their J evaluations in
+    ``workers`` processes: called from the job's own process only, never from a worker)."""
     s = ctx.settings
     effect = problem.effects[-1]
     cand = CANDIDATES[effect]
@@ -386,7 +387,8 @@ def _tested(ctx: DiagnosisContext, problem: JointProblem, fit: Fit, new: Fit, n_
     if sandwich and min(1.0, n_tests * p_value) < s.level:
         # Significant on the independence likelihood: measure how much spans sharing a mast
         # inflate it (never deflate), test again, and give the standard errors.
-        new = with_covariance(new, problem, ctx.box, mast_pairs=ctx.pairs) if new.covariance is None else new
+        new = (with_covariance(new, problem, ctx.box, mast_pairs=ctx.pairs, workers=workers) if new.covariance is None
+               else new)
         widen = new.variance_widening[-len(cand.parameters):]
         inside = new.interior[-len(cand.parameters):]
         factor = float(max(1.0, np.max(widen[inside]))) if inside.any() else 1.0
@@ -437,7 +439,8 @@ def sandwich_leaders(ctx: DiagnosisContext, current_effects: tuple[str, ...], fi
             return results
         for test, new in pending:
             problem = ctx.problem((*current_effects, test.effect))
-            results[test.effect] = _tested(ctx, problem, fit, new, n_tests, sandwich=True, detectable=test.detectable,
+            results[test.effect] = _tested(ctx, problem, fit, new, n_tests, sandwich=True, workers=ctx.workers,
+                                           detectable=test.detectable,
                                            score_statistic=test.score_statistic, score_p_value=test.score_p_value,
                                            score_z=test.score_z)
             done.add(test.effect)

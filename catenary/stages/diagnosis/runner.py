@@ -268,7 +268,8 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
         if verdict == "named":
             fit = results[effect][1]
             problem = ctx.problem((*problem.effects, effect))
-            fit = with_covariance(fit, problem, ctx.box, mast_pairs=mast_pairs) if fit.covariance is None else fit
+            fit = (with_covariance(fit, problem, ctx.box, mast_pairs=mast_pairs, workers=workers)
+                   if fit.covariance is None else fit)
             after = ctx.locate(problem, fit)
         steps.append(Step(step=k, model_effects=effects_before, before=before, candidates=tests, verdict=verdict, effect=effect,
                           runner_up=runner, after=after))
@@ -277,7 +278,8 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
         if verdict != "named":
             break
         before = after
-    final = fit if fit.covariance is not None else with_covariance(fit, problem, ctx.box, mast_pairs=mast_pairs)
+    final = (fit if fit.covariance is not None
+             else with_covariance(fit, problem, ctx.box, mast_pairs=mast_pairs, workers=workers))
     hz = henze_zirkler(data)
     run = DiagnosisRun(span_type=span_type.name, settings=settings, base=base, n_spans=int(data.shape[0]),
                        skipped=skipped, start=start_fit, steps=steps, final=final, final_names=final.names,

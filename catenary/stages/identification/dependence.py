@@ -67,7 +67,7 @@ def adjacent_span_pairs(section_id, start_chainage_m, end_chainage_m, *, toleran
 
 
 def span_scores(log_density: Callable[[np.ndarray], np.ndarray | None], theta: np.ndarray,
-                step: float) -> np.ndarray:
+                step: float, log_density_many: Callable[[list], list] | None = None) -> np.ndarray:
     """Per-span scores ``∂ ln p_W(W_k; θ)/∂θ_i`` by central differences.
 
     Parameters
@@ -77,17 +77,24 @@ def span_scores(log_density: Callable[[np.ndarray], np.ndarray | None], theta: n
     theta : numpy.ndarray, shape (p,)
     step : float
         Difference step in θ (the Hessian's).
+    log_density_many : callable, optional
+        The list of points (θ ± h e_i, i in order) ↦ their ``log_density`` at once (e.g. in
+        worker processes); default: ``log_density`` at each in turn.
 
     Returns
     -------
     numpy.ndarray, shape (K, p)
         NaN in a column whose difference could not be formed.
     """
-    columns = []
+    points = []
     for i in range(theta.size):
         e = np.zeros(theta.size)
         e[i] = step
-        up, down = log_density(theta + e), log_density(theta - e)
+        points += [theta + e, theta - e]
+    values = log_density_many(points) if log_density_many is not None else [log_density(x) for x in points]
+    columns = []
+    for i in range(theta.size):
+        up, down = values[2 * i], values[2 * i + 1]
         if up is None or down is None:
             columns.append(None)
         else:
@@ -147,12 +154,14 @@ def widened_covariance(covariance: np.ndarray, robust: np.ndarray) -> np.ndarray
 
 
 def robust_covariance(log_density: Callable[[np.ndarray], np.ndarray | None], theta: np.ndarray, step: float,
-                      covariance: np.ndarray, interior: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+                      covariance: np.ndarray, interior: np.ndarray, pairs: np.ndarray,
+                      log_density_many: Callable[[list], list] | None = None) -> np.ndarray:
     """The sandwich over the ``interior`` coordinates of θ, embedded in a (p, p) array (NaN
-    elsewhere): per-span scores by :func:`span_scores` (2p evaluations of ``log_density``) and
-    :func:`sandwich_covariance` with the observed-information ``covariance``."""
+    elsewhere): per-span scores by :func:`span_scores` (2p evaluations of ``log_density``, or of
+    ``log_density_many`` at once) and :func:`sandwich_covariance` with the observed-information
+    ``covariance``."""
     interior = np.asarray(interior, dtype=bool)
-    scores = span_scores(log_density, np.asarray(theta, dtype=float), step)
+    scores = span_scores(log_density, np.asarray(theta, dtype=float), step, log_density_many)
     inside = np.ix_(interior, interior)
     out = np.full((interior.size, interior.size), np.nan)
     out[inside] = sandwich_covariance(np.asarray(covariance)[inside], scores[:, interior], pairs)

@@ -44,14 +44,16 @@ from scipy.optimize import minimize
 from catenary.physics.config import Catenary, SpanType
 from catenary.physics.fast import SAMPLING_DEGREE, FastSpanModel
 from catenary.plumbing.progress import Progress
+from catenary.plumbing.workers import map_blocks
 from .design import (DEFAULT_DESIGN, MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, default_inputs,
                      design_dimension, draw_unit_design)
 from .dependence import robust_covariance, widened_covariance
 from .likelihood import Likelihood, LikelihoodValue
 from .result import IdentificationResult, ParameterEstimate
 
-__all__ = ["COVARIANCES", "METHODS", "ParameterBox", "ScaledProblem", "identify", "make_likelihood",
-           "messenger_tension_bounds_n", "observed_covariance", "observed_information", "run_nelder_mead"]
+__all__ = ["COVARIANCES", "METHODS", "ParameterBox", "ScaledProblem", "evaluate_points", "hessian_points", "identify",
+           "make_likelihood", "messenger_tension_bounds_n", "observed_covariance", "observed_information",
+           "run_nelder_mead"]
 
 METHODS = ("nelder-mead", "bobyqa")
 COVARIANCES = ("observed_information", "sandwich")
@@ -178,17 +180,26 @@ class ScaledProblem:
     def evaluate(self, theta: np.ndarray) -> LikelihoodValue:
         """J and its diagnostics at θ (:class:`~.likelihood.LikelihoodValue`); traced as :meth:`j`."""
         theta = np.array(theta, dtype=float)
-        means, sigmas = self.laws(theta)
-        result = self.likelihood.evaluate(means, sigmas)
-        value = result.j
+        return self._record(theta, self.likelihood.evaluate(*self.laws(theta)))
+
+    def _record(self, theta: np.ndarray, result: LikelihoodValue, traced: bool = True) -> LikelihoodValue:
+        """Count an evaluation at θ and, while ``recording`` (and ``traced``), trace it."""
         self.n_evaluations += 1
-        if self.recording:
-            self.trace.append((theta, means, sigmas, value))
+        if traced and self.recording:
+            means, sigmas = self.laws(theta)
+            self.trace.append((theta, means, sigmas, result.j))
             if self.progress is not None:
-                if np.isfinite(value) and value > self.best_j:
-                    self.best_j = value
+                if np.isfinite(result.j) and result.j > self.best_j:
+                    self.best_j = result.j
                 self.progress.update(len(self.trace), f"best J so far {self.best_j:.3f}")
         return result
+
+    def evaluate_many(self, thetas, workers: int = 1, traced: bool = True) -> list[LikelihoodValue]:
+        """:meth:`evaluate` at each θ of ``thetas``, in ``workers`` processes
+        (:func:`evaluate_points`); counted and traced here in their order, as one after the other."""
+        thetas = [np.array(t, dtype=float) for t in thetas]
+        values = evaluate_points(lambda t: self.likelihood.evaluate(*self.laws(t)), thetas, workers)
+        return [self._record(t, v, traced) for t, v in zip(thetas, values)]
 
     def j(self, theta: np.ndarray) -> float:
         return self.evaluate(theta).j
@@ -197,6 +208,10 @@ class ScaledProblem:
         """``ln p_W(W_k; s(θ))`` per measured span (None where J is not finite); not traced."""
         self.n_evaluations += 1
         return self.likelihood.evaluate(*self.laws(np.asarray(theta, dtype=float))).log_density
+
+    def log_densities_many(self, thetas, workers: int = 1) -> list[np.ndarray | None]:
+        """:meth:`log_densities` at each θ of ``thetas`` in ``workers`` processes."""
+        return [v.log_density for v in self.evaluate_many(thetas, workers, traced=False)]
 
     def objective(self, theta) -> float:
         value = self.j(theta)
@@ -224,21 +239,50 @@ class ScaledProblem:
         return np.array(lo), np.array(hi)
 
 
-def observed_information(j, theta: np.ndarray, step: float) -> np.ndarray:
+#: J evaluations per block of :func:`evaluate_points`' worker processes.
+POINTS_PER_BLOCK = 8
+
+
+def evaluate_points(function, points: list, workers: int = 1) -> list:
+    """``function(θ)`` at each of ``points``, in order, over blocks of :data:`POINTS_PER_BLOCK`
+    in ``workers`` forked processes (:func:`catenary.plumbing.workers.map_blocks`): a J is the
+    same computation in any process, so the values are the same, bit for bit, for any number.
+    What ``function`` changes in a worker (counters, traces) stays there: the caller records."""
+    blocks = map_blocks(lambda start, stop: [function(points[k]) for k in range(start, stop)], len(points), workers,
+                        POINTS_PER_BLOCK)
+    return [value for block in blocks for value in block]
+
+
+def hessian_points(theta: np.ndarray, step: float) -> list[np.ndarray]:
+    """The points :func:`observed_information` evaluates J at, in its order: θ, then per
+    coordinate i, θ ± h e_i and, for each k < i, θ + h e_i + h e_k, θ + h e_i − h e_k,
+    θ − h e_i + h e_k, θ − h e_i − h e_k."""
+    e = np.eye(theta.size) * step
+    points = [theta]
+    for i in range(theta.size):
+        points += [theta + e[i], theta - e[i]]
+        for k in range(i):
+            points += [theta + e[i] + e[k], theta + e[i] - e[k], theta - e[i] + e[k], theta - e[i] - e[k]]
+    return points
+
+
+def observed_information(j, theta: np.ndarray, step: float, j_many=None) -> np.ndarray:
     """−H: minus the central finite-difference Hessian of ``j`` at ``theta``.
 
     Diagonal: ``(J(θ+h e_i) − 2J(θ) + J(θ−h e_i)) / h²``; off-diagonal:
-    ``(J(++) − J(+−) − J(−+) + J(−−)) / (4h²)``.
+    ``(J(++) − J(+−) − J(−+) + J(−−)) / (4h²)``. ``j_many``, given, takes the list of
+    :func:`hessian_points` and returns their J at once (e.g. in worker processes); else ``j``
+    is called at each in turn.
     """
     p = theta.size
-    e = np.eye(p) * step
-    j0 = j(theta)
+    points = hessian_points(theta, step)
+    values = iter(j_many(points) if j_many is not None else [j(x) for x in points])
+    j0 = next(values)
     h = np.empty((p, p))
     for i in range(p):
-        h[i, i] = (j(theta + e[i]) - 2.0 * j0 + j(theta - e[i])) / step**2
+        h[i, i] = (next(values) - 2.0 * j0 + next(values)) / step**2
         for k in range(i):
-            h[i, k] = h[k, i] = (j(theta + e[i] + e[k]) - j(theta + e[i] - e[k])
-                                 - j(theta - e[i] + e[k]) + j(theta - e[i] - e[k])) / (4.0 * step**2)
+            h[i, k] = h[k, i] = (next(values) - next(values) - next(values) + next(values)) / (4.0 * step**2)
     return -h
 
 
@@ -272,16 +316,13 @@ def _run_bobyqa(problem, theta0, lo, hi, initial_step, max_evaluations, xtol, ft
     return converged, message or ("converged" if converged else "evaluation budget reached")
 
 
-def observed_covariance(problem, theta_opt, step, interior):
+def observed_covariance(problem, theta_opt, step, interior, workers: int = 1):
     """``problem.j``'s (−H)⁻¹ in θ over the ``interior`` coordinates (rows and columns of the others NaN; all NaN
-    if that block of −H is not positive definite) and the number of J evaluations."""
-    counter = [0]
-
-    def j_counted(theta):
-        counter[0] += 1
-        return problem.j(theta)
-
-    info = observed_information(j_counted, theta_opt, step)
+    if that block of −H is not positive definite) and the number of J evaluations; J at the
+    Hessian's points in ``workers`` processes (``problem.evaluate_many``)."""
+    points = hessian_points(np.asarray(theta_opt, dtype=float), step)
+    info = observed_information(problem.j, np.asarray(theta_opt, dtype=float), step,
+                                j_many=lambda x: [v.j for v in problem.evaluate_many(x, workers)])
     cov = np.full(info.shape, np.nan)
     block = info[np.ix_(interior, interior)]
     if np.all(np.isfinite(block)):
@@ -290,7 +331,7 @@ def observed_covariance(problem, theta_opt, step, interior):
             cov[np.ix_(interior, interior)] = np.linalg.inv(block)
         except np.linalg.LinAlgError:
             pass
-    return cov, counter[0]
+    return cov, len(points)
 
 
 def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
@@ -298,7 +339,7 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
              method: str = "nelder-mead", box: ParameterBox = ParameterBox(), initial_step: float = 0.5,
              max_evaluations: int = 6000, xtol: float | None = None, ftol: float | None = None,
              standard_errors: bool = True, hessian_step: float = 0.01, mast_pairs: np.ndarray | None = None,
-             covariance: str = "observed_information", log=None) -> IdentificationResult:
+             covariance: str = "observed_information", log=None, workers: int = 1) -> IdentificationResult:
     """Maximise J over the free hyper-parameters, from the laws ``start``.
 
     Parameters
@@ -336,6 +377,9 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
         Where the standard errors come from: the observed information, or the observed
         information with each variance widened by the sandwich where that is wider
         (:func:`.dependence.widened_covariance`; needs ``mast_pairs``).
+    workers : int
+        Processes for the J evaluations of the standard errors (the Hessian's and the sandwich's
+        points, :func:`evaluate_points`): the same standard errors for any number.
     log : logging.Logger, optional
         Where the optimiser's progress goes (evaluations against the budget, elapsed time).
 
@@ -378,12 +422,13 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
     nm = problem.free_mean_idx.size
     interior = np.ones(theta_opt.size, dtype=bool)
     interior[nm:] = np.asarray(theta_opt)[nm:] > lo[nm:] + hessian_step
-    cov, n_hess = (observed_covariance(problem, theta_opt, hessian_step, interior) if standard_errors
+    cov, n_hess = (observed_covariance(problem, theta_opt, hessian_step, interior, workers) if standard_errors
                    else (np.full((theta_opt.size, theta_opt.size), np.nan), 0))
     sandwich = None
     if standard_errors and mast_pairs is not None:
         sandwich = robust_covariance(problem.log_densities, np.asarray(theta_opt, dtype=float), hessian_step, cov,
-                                     interior, mast_pairs)
+                                     interior, mast_pairs,
+                                     log_density_many=lambda x: problem.log_densities_many(x, workers))
         n_hess += 2 * theta_opt.size
     elapsed = time.perf_counter() - t_start
     reported = widened_covariance(cov, sandwich) if covariance == "sandwich" and sandwich is not None else cov

@@ -290,7 +290,7 @@ def identify_laws(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray,
                   settings: IdentificationSettings, *, left_out: list[tuple[str, str]] | None = None,
                   mast_pairs: np.ndarray | None = None, log: logging.Logger | None = None,
                   noise_covariance_m2: np.ndarray | None = None, n_runs: np.ndarray | None = None,
-                  w_shifts: SpanShifts | None = None, observations=None) -> IdentifiedLaws:
+                  w_shifts: SpanShifts | None = None, observations=None, workers: int = 1) -> IdentifiedLaws:
     """s_opt with its standard errors and model-error budget (the first half of
     :func:`run_identification`, whose parameters it takes): what the later stages need of laws
     identified on a subset of the spans (those the final model explains)."""
@@ -331,7 +331,7 @@ def identify_laws(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray,
     result = identify(lik, start, free_means=s.free_mean_names(n), free_sigmas=random, method=s.method,
                       initial_step=s.initial_step, max_evaluations=s.max_evaluations, xtol=s.xtol, ftol=s.ftol,
                       hessian_step=s.hessian_step, mast_pairs=mast_pairs if covariance == "sandwich" else None,
-                      covariance=covariance, log=log)
+                      covariance=covariance, log=log, workers=workers)
     log.info("%s: %s %s after %d evaluations (+%d for the Hessian) in %.1f s: J(s_opt) = %.3f (%s)",
              span_type.name, s.method, "converged" if result.converged else "did NOT converge",
              result.n_evaluations, result.n_hessian_evaluations, result.time_s, result.j_opt, result.message)
@@ -404,7 +404,8 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
         row with ``data_w_m`` (:class:`catenary.measurement.channels.observations.Observations`; Gaussian
         estimator): J reads them jointly with W.
     workers : int
-        Processes for the profile intervals' ends (the same intervals for any number).
+        Processes for the profile intervals' ends and for the J evaluations of the standard
+        errors (the same intervals and errors for any number).
 
     Returns
     -------
@@ -419,7 +420,7 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     t0 = time.perf_counter()
     laws = identify_laws(span_type, catenary, data_w_m, settings, left_out=left_out, mast_pairs=mast_pairs, log=log,
                          noise_covariance_m2=noise_covariance_m2, n_runs=n_runs, w_shifts=w_shifts,
-                         observations=observations)
+                         observations=observations, workers=workers)
     lik, start, result, budget, j_start = laws.likelihood, laws.start, laws.result, laws.model_error, laws.j_start
     data = lik.data_w_m
     s = settings

@@ -36,7 +36,8 @@ from catenary.stages.contact_force.draws import build_section
 from catenary.stages.contact_force.runs import CRITERIA, run_section
 from catenary.stages.contact_force.settings import ContactForceSettings
 
-__all__ = ["REPAIR_COLUMNS", "RepairWindow", "fixing_buys", "repair_windows", "window_parameters"]
+__all__ = ["REPAIR_COLUMNS", "PosteriorMeans", "RepairWindow", "fixing_buys", "posterior_means", "repair_windows",
+           "window_parameters"]
 
 #: Repair windows per block of the worker processes of :func:`fixing_buys`.
 WINDOWS_PER_BLOCK = 4
@@ -95,30 +96,41 @@ def repair_windows(posterior: pd.DataFrame, listed: pd.DataFrame, n_spans: int, 
     return windows, skipped
 
 
-def window_parameters(posterior: pd.DataFrame, window: RepairWindow, span_type: SpanType,
+@dataclass(frozen=True)
+class PosteriorMeans:
+    """Each span's posterior mean and nominal value of every input: one row per span
+    (``span_id``), one column per input (``dropper_1_length_m`` …) [SI]."""
+
+    mean: pd.DataFrame
+    nominal: pd.DataFrame
+
+
+def posterior_means(posterior: pd.DataFrame) -> PosteriorMeans:
+    """The posterior table (one row per span and input) read once into :class:`PosteriorMeans`,
+    so that a window's values are looked up by span, not searched for in the whole line's rows."""
+    return PosteriorMeans(mean=posterior.pivot(index="span_id", columns="input", values="mean"),
+                          nominal=posterior.pivot(index="span_id", columns="input", values="nominal"))
+
+
+def window_parameters(means: PosteriorMeans, window: RepairWindow, span_type: SpanType,
                       repaired: bool = False) -> SpanParameters:
     """The window's spans at their posterior means (``repaired``: listed droppers at nominal)."""
     n = span_type.n_droppers
-    table = posterior.set_index(["span_id", "input"])
-    k = len(window.span_ids)
-
-    def value(span, name, column="mean"):
-        return float(table.loc[(span, name), column])
-
-    lengths = np.array([[value(s, f"dropper_{i + 1}_length_m") for i in range(n)] for s in window.span_ids])
+    spans = list(window.span_ids)
+    k = len(spans)
+    mean = means.mean.loc[spans]
+    lengths = mean[[f"dropper_{i + 1}_length_m" for i in range(n)]].to_numpy(dtype=float, copy=True)
     if repaired:
         for span, i in window.droppers:
-            row = window.span_ids.index(span)
-            lengths[row, i] = value(span, f"dropper_{i + 1}_length_m", "nominal")
-    inputs = set(posterior["input"])
-    if "system_height_left_m" in inputs:
-        left = np.array([value(s, "system_height_left_m") for s in window.span_ids])
-        right = np.array([value(s, "system_height_right_m") for s in window.span_ids])
+            lengths[spans.index(span), i] = float(means.nominal.at[span, f"dropper_{i + 1}_length_m"])
+    if "system_height_left_m" in mean.columns:
+        left = mean["system_height_left_m"].to_numpy(dtype=float)
+        right = mean["system_height_right_m"].to_numpy(dtype=float)
     else:
-        left = right = np.array([value(s, "system_height_m") for s in window.span_ids])
+        left = right = mean["system_height_m"].to_numpy(dtype=float)
     # A mast's ΔH: the mean of what the two spans on it say (one section model, one ΔH per mast).
     masts = np.r_[left[0], 0.5 * (right[:-1] + left[1:]), right[-1]]
-    tension = np.array([value(s, "messenger_tension_n") for s in window.span_ids])
+    tension = mean["messenger_tension_n"].to_numpy(dtype=float)
     return SpanParameters(
         dropper_lengths_m=lengths, system_height_left_m=masts[:-1].copy(), system_height_right_m=masts[1:].copy(),
         system_height_mean_m=np.full(k, span_type.system_height_m), messenger_tension_n=tension,
@@ -155,13 +167,14 @@ def fixing_buys(posterior: pd.DataFrame, listed: pd.DataFrame, span_type: SpanTy
         Sections holding listed droppers that no window fits, with the reason.
     """
     windows, skipped = repair_windows(posterior, listed, settings.n_spans, settings.analysis_masts)
+    means = posterior_means(posterior)
 
     def block(start: int, stop: int) -> list[dict]:
         rows = []
         for window in windows[start:stop]:
             label = ";".join(f"{s}:{i + 1}" for s, i in window.droppers)
             for state in ("as_measured", "repaired"):
-                section = build_section(window_parameters(posterior, window, span_type, state == "repaired"),
+                section = build_section(window_parameters(means, window, span_type, state == "repaired"),
                                         span_type, catenary)
                 _, runs = run_section(section, catenary, pantograph, settings, settings.speeds_kmh)
                 for run in runs:
