@@ -339,3 +339,30 @@ def test_the_hessian_and_scores_are_the_same_with_two_workers_and_recorded_in_or
     quadratic = np.array([[2.0, 0.5, 0.0], [0.5, 1.0, 0.2], [0.0, 0.2, 3.0]])
     np.testing.assert_allclose(observed_information(lambda t: -0.5 * t @ quadratic @ t, theta, 0.01), quadratic,
                                rtol=1e-9)
+
+
+def test_the_measuring_passs_responses_are_the_same_with_two_workers(catenary, n2):
+    # The profile test's base columns: the pass over the nominal section once, then once per
+    # raised support point (9 droppers, 2 masts), each its own run: the same columns bit for bit
+    # with 2 workers, in both directions of travel. And each column is the response to raising
+    # the static CW there, in its own place: statically the hat of a tensioned wire, 1 at its
+    # support point and 0 at the others; the pass at 40 km/h takes 0.02–0.22 of it off there
+    # (measured 0.78–0.98) and spreads at most 0.36 to a neighbour. So at each support point
+    # its own column lies in [0.7, 1.0] and is the largest (a column out of order, or a worker's
+    # result put in another's place, is not).
+    from catenary.physics.measuring import profile_influence
+    from catenary.physics.pantograph import load_pantographs
+    from .conftest import ROOT
+
+    pantograph = load_pantographs(ROOT / "config" / "pantographs.yaml")["measuring"]
+    x = np.linspace(0.0, n2.length_m, 118)
+    for direction in (1, -1):
+        one, two = (profile_influence(n2, catenary, pantograph, speed_m_s=40 / 3.6, x_m=x, time_step_s=0.004,
+                                      direction=direction, workers=w) for w in (1, 2))
+        np.testing.assert_array_equal(one, two)
+        assert one.shape == (x.size, n2.n_droppers + 2)
+        at = [int(np.argmin(np.abs(x - p))) for p in (*n2.dropper_positions_m, 0.0, n2.length_m)]
+        rows = one[at]
+        own = np.diag(rows)
+        assert np.all((own >= 0.7) & (own <= 1.0))
+        assert np.all(own > np.abs(rows - np.diag(own)).max(axis=1))
