@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from catenary.plumbing.workers import map_blocks
+from catenary.plumbing.workers import map_each
 
 from .config import Catenary, SpanType
 from .dropper_table import dropper_lengths_for_cw_heights, nominal_dropper_lengths
@@ -183,7 +183,7 @@ def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Panto
     direction : {1, -1}
         Direction of travel of the measuring car.
     workers : int
-        Processes over the raised support points (:func:`catenary.plumbing.workers.map_blocks`):
+        Processes over the raised support points (:func:`catenary.plumbing.workers.map_each`):
         each column's pass is its own, so the columns are the same for any number.
 
     Returns
@@ -219,7 +219,6 @@ def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Panto
         moved = section.with_cw_support_heights(support)
         return (run(dropper_lengths_for_cw_heights(moved, catenary, heights).section) - base) / step_m
 
-    columns = [c for block in map_blocks(lambda a, b: [raised(k) for k in range(a, b)], n + 2, workers, 1)
-               for c in block]
+    columns = map_each(raised, n + 2, workers, 1)
     return np.column_stack(columns)
 

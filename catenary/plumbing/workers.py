@@ -22,7 +22,7 @@ from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from typing import TypeVar
 
-__all__ = ["map_blocks"]
+__all__ = ["map_blocks", "map_each"]
 
 T = TypeVar("T")
 
@@ -58,3 +58,10 @@ def map_blocks(function: Callable[[int, int], T], n_items: int, workers: int, bl
             return list(pool.map(_run, range(len(bounds))))
     finally:
         _TASK.clear()
+
+
+def map_each(function: Callable[[int], T], n_items: int, workers: int, block_size: int) -> list[T]:
+    """``function(k)`` of each item ``k`` of ``range(n_items)``, in order: :func:`map_blocks` over
+    blocks of ``block_size`` items, each block's values listed and the blocks joined."""
+    blocks = map_blocks(lambda start, stop: [function(k) for k in range(start, stop)], n_items, workers, block_size)
+    return [value for block in blocks for value in block]

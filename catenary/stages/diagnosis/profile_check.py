@@ -55,7 +55,7 @@ import numpy as np
 import pandas as pd
 from scipy import special, stats
 
-from catenary.plumbing.workers import map_blocks
+from catenary.plumbing.workers import map_each
 
 __all__ = ["Influence", "ProfileNoise", "ProfileSettings", "base_columns", "estimate_noise", "hunter_max_normal_sf",
            "profile_tests", "tent_columns"]
@@ -228,8 +228,7 @@ def _span_data(profiles: pd.DataFrame, influences: dict | None = None,
     x = profiles["x_m"].to_numpy(dtype=float)[keep]
     y = residual[keep]
     order = np.lexsort((x, run_code, span_code))
-    if np.any(order != np.arange(order.size)):       # a recording's rows are usually in order already
-        x, y, run_code, span_code, run_of = x[order], y[order], run_code[order], span_code[order], run_of[order]
+    x, y, run_code, span_code, run_of = x[order], y[order], run_code[order], span_code[order], run_of[order]
     ends = np.flatnonzero(np.diff(run_code)) + 1
     starts = np.r_[0, ends] if x.size else np.zeros(0, dtype=int)
     stops = np.r_[ends, x.size] if x.size else np.zeros(0, dtype=int)
@@ -258,10 +257,8 @@ SPANS_PER_BLOCK = 250
 
 def _per_span(function, spans: list[_SpanData], workers: int) -> list:
     """``function(span)`` of every span, in order, over blocks of :data:`SPANS_PER_BLOCK` spans
-    in ``workers`` processes (:func:`catenary.plumbing.workers.map_blocks`)."""
-    blocks = map_blocks(lambda start, stop: [function(s) for s in spans[start:stop]], len(spans), workers,
-                        SPANS_PER_BLOCK)
-    return [value for block in blocks for value in block]
+    in ``workers`` processes (:func:`catenary.plumbing.workers.map_each`)."""
+    return map_each(lambda k: function(spans[k]), len(spans), workers, SPANS_PER_BLOCK)
 
 
 def estimate_noise(spans: list[_SpanData], knots_m: np.ndarray, workers: int = 1) -> ProfileNoise:
@@ -432,9 +429,8 @@ def _calibration(knots_m: np.ndarray, centres: np.ndarray, n_runs: int, noise: P
         chi2 = np.einsum("ij,ij->j", e, e)
         p_global[start:start + m] = stats.chi2.sf(chi2, template.dof)
         t_max[start:start + m] = np.abs(unit.T @ e).max(axis=0)
-    p_local = np.concatenate(map_blocks(
-        lambda a, b: np.array([hunter_max_normal_sf(float(t), rho_chain, centres.size, links) for t in t_max[a:b]]),
-        t_max.size, workers, 500))
+    p_local = np.array(map_each(lambda k: hunter_max_normal_sf(float(t_max[k]), rho_chain, centres.size, links),
+                                t_max.size, workers, 500))
     return np.sort(np.minimum(p_global, p_local))
 
 
@@ -539,8 +535,7 @@ def profile_tests(profiles: pd.DataFrame, length_m: float, dropper_positions_m: 
                 "p_global": scan.p_global, "t_max": t_max, "p_local": p_local, "p_profile": p_profile,
                 "peak_x_m": x0, "peak_height_m": height, "peak_load_n": load, "bays_not_scanned": unread[k]}
 
-    rows = [row for block in map_blocks(lambda start, stop: [span_row(k) for k in range(start, stop)], len(spans),
-                                        workers, SPANS_PER_BLOCK) for row in block]
+    rows = map_each(span_row, len(spans), workers, SPANS_PER_BLOCK)
     order = {s.span_id: i for i, s in enumerate(spans)}
     table = pd.DataFrame(rows, columns=list(PROFILE_TEST_COLUMNS))
     return table.sort_values("span_id", key=lambda c: c.map(order)).reset_index(drop=True), noise

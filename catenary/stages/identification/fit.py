@@ -44,7 +44,7 @@ from scipy.optimize import minimize
 from catenary.physics.config import Catenary, SpanType
 from catenary.physics.fast import SAMPLING_DEGREE, FastSpanModel
 from catenary.plumbing.progress import Progress
-from catenary.plumbing.workers import map_blocks
+from catenary.plumbing.workers import map_each
 from .design import (DEFAULT_DESIGN, MESSENGER_TENSION, SYSTEM_HEIGHT, RandomInput, default_inputs,
                      design_dimension, draw_unit_design)
 from .dependence import robust_covariance, widened_covariance
@@ -245,12 +245,10 @@ POINTS_PER_BLOCK = 8
 
 def evaluate_points(function, points: list, workers: int = 1) -> list:
     """``function(θ)`` at each of ``points``, in order, over blocks of :data:`POINTS_PER_BLOCK`
-    in ``workers`` forked processes (:func:`catenary.plumbing.workers.map_blocks`): a J is the
+    in ``workers`` forked processes (:func:`catenary.plumbing.workers.map_each`): a J is the
     same computation in any process, so the values are the same, bit for bit, for any number.
     What ``function`` changes in a worker (counters, traces) stays there: the caller records."""
-    blocks = map_blocks(lambda start, stop: [function(points[k]) for k in range(start, stop)], len(points), workers,
-                        POINTS_PER_BLOCK)
-    return [value for block in blocks for value in block]
+    return map_each(lambda k: function(points[k]), len(points), workers, POINTS_PER_BLOCK)
 
 
 def hessian_points(theta: np.ndarray, step: float) -> list[np.ndarray]:
@@ -320,9 +318,8 @@ def observed_covariance(problem, theta_opt, step, interior, workers: int = 1):
     """``problem.j``'s (−H)⁻¹ in θ over the ``interior`` coordinates (rows and columns of the others NaN; all NaN
     if that block of −H is not positive definite) and the number of J evaluations; J at the
     Hessian's points in ``workers`` processes (``problem.evaluate_many``)."""
-    points = hessian_points(np.asarray(theta_opt, dtype=float), step)
-    info = observed_information(problem.j, np.asarray(theta_opt, dtype=float), step,
-                                j_many=lambda x: [v.j for v in problem.evaluate_many(x, workers)])
+    theta = np.asarray(theta_opt, dtype=float)
+    info = observed_information(problem.j, theta, step, j_many=lambda x: [v.j for v in problem.evaluate_many(x, workers)])
     cov = np.full(info.shape, np.nan)
     block = info[np.ix_(interior, interior)]
     if np.all(np.isfinite(block)):
@@ -331,7 +328,7 @@ def observed_covariance(problem, theta_opt, step, interior, workers: int = 1):
             cov[np.ix_(interior, interior)] = np.linalg.inv(block)
         except np.linalg.LinAlgError:
             pass
-    return cov, len(points)
+    return cov, 1 + 2 * theta.size ** 2          # len(hessian_points): θ, 2p, and 4 for each of p(p − 1)/2 pairs
 
 
 def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,

@@ -38,7 +38,7 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import minimize
 
-from catenary.plumbing.workers import map_blocks
+from catenary.plumbing.workers import map_each
 
 from .design import RandomInput
 from .fit import ParameterBox, ScaledProblem
@@ -176,7 +176,7 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
         Each re-optimisation of the other coordinates: Fisher scoring, then Nelder–Mead where it
         does not certify its maximum (module docstring), or Nelder–Mead alone.
     workers : int
-        Processes over the intervals' ends (:func:`catenary.plumbing.workers.map_blocks`): each
+        Processes over the intervals' ends (:func:`catenary.plumbing.workers.map_each`): each
         end is searched from s_opt alone, so the intervals are the same for any number.
 
     Returns
@@ -240,8 +240,7 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
 
     # Every end is its own search from s_opt: in worker processes, the same ends in any number.
     tasks = [(i, side) for i in chosen for side in (-1.0, 1.0)]
-    found = [r for block in map_blocks(lambda a, b: [end(*tasks[k]) for k in range(a, b)], len(tasks), workers, 1)
-             for r in block]
+    found = map_each(lambda k: end(*tasks[k]), len(tasks), workers, 1)
     out = []
     for n_chosen, i in enumerate(chosen):
         (low, low_edge, n_low), (high, high_edge, n_high) = found[2 * n_chosen], found[2 * n_chosen + 1]
