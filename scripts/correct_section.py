@@ -11,6 +11,7 @@ from catenary.plumbing.heap import steady_heap
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table, settings_hash, write_table
 from catenary.stages.correction import CorrectionSettings, correct_spans, corrected_schema, profiles_schema
+from catenary.stages.correction.step import read_responses
 from catenary.stages.model_error.correction import SectionBudget
 from catenary.stages.model_error.sources import ModelErrorSettings
 
@@ -46,9 +47,10 @@ def measure_if_listed(rows, *args):
         measure_budget(rows, *args)
 
 
+responses = read_responses(pd.read_parquet(snakemake.input.response), snakemake.input.response)
 corrected, convergence, corrected_profiles = correct_spans(spans, catenary, pantograph, settings, log=log,
                                                            report=report, after_run=measure_if_listed,
-                                                           profiles=profiles)
+                                                           profiles=profiles, responses=responses)
 measure_budget.table().to_parquet(snakemake.output.model_error, index=False)
 write_table(corrected, Path(snakemake.output.corrected), corrected_schema(corrected.columns),
             config_hash=settings_hash(snakemake.config), kind="corrected_section")

@@ -449,3 +449,16 @@ def test_repaired_geometry_runs_as_the_nominal_section(catenary, n2):
     assert abs(repaired["std_force_n"] - reference["std_force_n"]) < 1e-9
     assert abs(repaired["mean_force_n"] - reference["mean_force_n"]) < 1e-9
     assert abs(measured["std_force_n"] - reference["std_force_n"]) > 0.05
+
+
+def test_the_chainage_figure_draws_a_mean_outside_its_interval(tmp_path):
+    # A skewed posterior's mean can lie outside its 5–95 % quantiles (an importance sample with one
+    # heavy draw); the figure shows it where it is instead of refusing a negative error bar.
+    from catenary.stages.maintenance.figures import chainage_figure
+    rows = pd.DataFrame({"span_id": ["a", "b"], "input": ["dropper_1_length_m", "dropper_2_length_m"],
+                         "mean": [1.003, 0.990], "q05": [1.004, 0.985], "q95": [1.010, 0.995],
+                         "p_out_of_tolerance": [0.1, 0.9], "nominal": [1.0, 1.0], "lower": [0.99, 0.99],
+                         "upper": [1.01, 1.01], "section_id": "S", "start_chainage_m": [0.0, 60.0],
+                         "end_chainage_m": [60.0, 120.0], "effective_samples": 100.0, "status": "ok"})
+    path = chainage_figure(rows, 0.5, tmp_path / "chainage.png", "N2")
+    assert path.stat().st_size > 0

@@ -191,12 +191,50 @@ def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Panto
     numpy.ndarray, shape (len(x_m), n_droppers + 2)
         Columns: the droppers in order, then the left and the right mast.
     """
-    lengths = nominal_dropper_lengths(span_type, catenary).dropper_lengths_m
-    section = uniform_section(span_type, 2 * neighbours + 1, lengths)
     x = np.asarray(x_m, dtype=float)
     if x.ndim != 1 or np.any(x < 0) or np.any(x > span_type.length_m):
         raise ValueError(f"x_m: expected abscissae within the span [0, {span_type.length_m}] m")
-    at = section.mast_chainage_m[neighbours] + x
+    return _raised_supports(span_type, catenary, pantograph, x, (0, 1), speed_m_s=speed_m_s, mode=mode,
+                            time_step_s=time_step_s, direction=direction, neighbours=neighbours, step_m=step_m,
+                            workers=workers)
+
+
+def support_response(span_type: SpanType, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,
+                     mode: str = "dynamic", time_step_s: float | None = None, direction: int = 1,
+                     neighbours: int = 2, step_m: float = 1e-3, workers: int = 1) -> np.ndarray:
+    """How the heights a measuring pass reports at every support point of ``2 neighbours + 1``
+    nominal spans move when the central span's static CW is raised at one of its droppers or at
+    its left mast [m/m] (the moves of :func:`profile_influence`, read at the support points of the
+    whole section instead of along the central span).
+
+    The correction's step (:mod:`catenary.stages.correction.step`) assembles a run of spans'
+    response from these columns, shifted span by span: the pass is linear in the static CW while
+    the droppers stay taut and the pantograph in contact, and a span far enough from the
+    section's ends answers as the central one.
+
+    Returns
+    -------
+    numpy.ndarray, shape ((2 neighbours + 1) n + 2 neighbours + 2, n + 1)
+        Rows: the droppers span by span, then the masts, in chainage order; columns: the central
+        span's droppers, then its left mast (n = ``span_type.n_droppers``).
+    """
+    spans = 2 * neighbours + 1
+    x = np.concatenate([np.add.outer(np.arange(spans) * span_type.length_m, span_type.dropper_positions_m).ravel(),
+                        np.arange(spans + 1) * span_type.length_m]) - neighbours * span_type.length_m
+    return _raised_supports(span_type, catenary, pantograph, x, (0,), speed_m_s=speed_m_s, mode=mode,
+                            time_step_s=time_step_s, direction=direction, neighbours=neighbours, step_m=step_m,
+                            workers=workers)
+
+
+def _raised_supports(span_type: SpanType, catenary: Catenary, pantograph: Pantograph, x_m: np.ndarray,
+                     masts: tuple[int, ...], *, speed_m_s: float, mode: str, time_step_s: float | None,
+                     direction: int, neighbours: int, step_m: float, workers: int) -> np.ndarray:
+    """Columns of :func:`profile_influence` and :func:`support_response`: the measured heights at
+    ``x_m`` (from the central span's left mast [m]) per unit raise of each of the central span's
+    droppers, then of its masts ``masts`` (0 left, 1 right)."""
+    lengths = nominal_dropper_lengths(span_type, catenary).dropper_lengths_m
+    section = uniform_section(span_type, 2 * neighbours + 1, lengths)
+    at = section.mast_chainage_m[neighbours] + x_m
     ops = CatenaryDynamics(section, catenary) if direction == 1 else CatenaryDynamics(section.mirrored(), catenary)
 
     def run(s: Section) -> np.ndarray:
@@ -209,16 +247,16 @@ def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Panto
     n = span_type.n_droppers
 
     def raised(k: int) -> np.ndarray:
-        """Column k: a dropper of the central span (k < n), else its left or right mast."""
+        """Column k: a dropper of the central span (k < n), else the mast masts[k - n]."""
         if k < n:
             target = heights.copy()
             target[neighbours * n + k] += step_m
             return (run(dropper_lengths_for_cw_heights(section, catenary, target).section) - base) / step_m
         support = section.cw_support_heights_m.copy()
-        support[neighbours + k - n] += step_m
+        support[neighbours + masts[k - n]] += step_m
         moved = section.with_cw_support_heights(support)
         return (run(dropper_lengths_for_cw_heights(moved, catenary, heights).section) - base) / step_m
 
-    columns = map_each(raised, n + 2, workers, 1)
+    columns = map_each(raised, n + len(masts), workers, 1)
     return np.column_stack(columns)
 

@@ -2,6 +2,32 @@
 # in common.smk: the linter wants functions apart from rules.
 
 
+rule measuring_response:
+    """The measuring pass's response to the static CW per span type and direction of travel, at
+    the spans' median speed and force (catenary.stages.correction.step): the step of every
+    section's dynamic passes, computed once for the line."""
+    input:
+        spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
+        catenary=config["catenary"],
+        pantographs=config["pantographs"],
+    output:
+        response=f"{RESULTS}/correction/measuring_response.parquet",
+    params:
+        correction=config["correction"],
+        span_types=SPAN_TYPES,
+    # On the chain to the correction, as the projection; its raised supports in worker processes.
+    priority: 2
+    threads: 2
+    log:
+        f"{RESULTS}/logs/measuring_response.log",
+    benchmark:
+        f"{RESULTS}/benchmarks/measuring_response.tsv",
+    conda:
+        "../envs/catenary.yaml"
+    script:
+        "../../scripts/measuring_response.py"
+
+
 rule correct_section:
     """Iterative dynamic correction of a batch of sections' spans (paper §2.2, Fig. 5): one section
     per job on a line of up to 100 sections (the batch is then named by its section), a long
@@ -10,6 +36,7 @@ rule correct_section:
         spans=expand(f"{RESULTS}/{{span_type}}/spans.parquet", span_type=SPAN_TYPES),
         profiles=expand(f"{RESULTS}/{{span_type}}/profiles.parquet", span_type=SPAN_TYPES),
         report=f"{RESULTS}/spans_report.csv",
+        response=f"{RESULTS}/correction/measuring_response.parquet",
         catenary=config["catenary"],
         pantographs=config["pantographs"],
     output:

@@ -46,8 +46,9 @@ def chainage_figure(posterior: pd.DataFrame, threshold: float, path: str | Path,
     for mask, colour, label in ((~listed, "0.35", "most likely deviation of the span, 90 % interval"),
                                 (listed, "tab:red", f"listed: P(out of tolerance) > {threshold:g}")):
         if mask.any():
-            ax.errorbar(x[mask], dev[mask], yerr=[dev[mask] - lo[mask], hi[mask] - dev[mask]], fmt="o", ms=3,
-                        color=colour, ecolor=colour, elinewidth=0.8, capsize=0, label=label)
+            # the interval drawn on its own: a skewed posterior's mean may lie outside its 5–95 % quantiles
+            ax.vlines(x[mask], lo[mask], hi[mask], color=colour, lw=0.8)
+            ax.plot(x[mask], dev[mask], "o", ms=3, color=colour, label=label)
     if np.isfinite(half):
         ax.axhspan(-half, half, color="tab:green", alpha=0.1, label=f"tolerance ±{half:g} mm")
     ax.axhline(0.0, color="k", lw=0.5)
