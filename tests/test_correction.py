@@ -226,3 +226,19 @@ def test_a_single_run_has_no_measured_residuals(catenary, n2, measuring):
     spans = measured_run(truth, catenary, measuring, "quasi_static", 0.005)
     corrected, *_ = correct_spans(spans, catenary, measuring, CorrectionSettings(mode="quasi_static"))
     assert corrected[[f"residual_w{i}_m" for i in range(1, 10)]].isna().all().all()
+
+
+def test_a_stalled_gap_ends_the_loop_before_its_budget(catenary, n2, measuring):
+    # The impossible span's gap cannot shrink (no dropper holds the CW 30 cm up): once a pass takes
+    # less than 3 % off it (DYNAMIC_STALL), further passes are not run, and the span is reported
+    # unconverged with its gap, its neighbour converged.
+    truth = true_line(catenary, n2, n_spans=2)
+    h_d = solve_static(truth, catenary).cw_height_at(truth.dropper_chainage_m)
+    spans = measured_spans(truth, h_d, truth.cw_support_heights_m)
+    spans.loc[1, "w5_m"] += 0.3
+    settings = CorrectionSettings(mode="quasi_static", max_iterations=10)
+    corrected, history, _ = correct_spans(spans, catenary, measuring, settings)
+    gaps = history[history["span_id"] == spans.loc[1, "span_id"]]["gap_norm_m"].to_numpy()
+    assert 2 <= gaps.size < 10
+    assert gaps[-1] > 0.97 * gaps[-2] and gaps[-1] > settings.tolerance_m
+    assert corrected["converged"].tolist() == [True, False]

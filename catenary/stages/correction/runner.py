@@ -526,7 +526,8 @@ def correct_spans(spans: pd.DataFrame, catenary: Catenary, pantograph: Pantograp
         chainages too.
     responses : list of SupportResponse
         The measuring pass's responses per span type and direction (:mod:`.step`; rule
-        ``measuring_response``): the step of each dynamic pass. Default: none, the plain step.
+        ``measuring_response``): the step after each run's first dynamic pass. Default: none,
+        the plain step.
 
     Returns
     -------
