@@ -50,9 +50,10 @@ __all__ = ["RESPONSE_COLUMNS", "SupportResponse", "measuring_responses", "pick_r
 #: matrix (``row``: the support point, ``column``: the raised support; :func:`support_response`).
 RESPONSE_COLUMNS = ("span_type", "direction", "speed_m_s", "force_n", "neighbours", "row", "column", "response")
 
-#: Neighbouring spans either side of the raised one in the nominal section: the response two
-#: spans away is below 0.01 of the raise (N2, N3 at 40 km/h), and the section's own ends stay out
-#: of the central span's response.
+#: Neighbouring spans either side of the raised one in the nominal section: the response falls
+#: from 0.82–0.98 at the raised dropper to ≤ 0.09 of the raise one span away and ≤ 0.03 two spans
+#: away (N2, N3 at 40 km/h), so beyond is left out, and the section's own ends stay out of the
+#: central span's response.
 NEIGHBOURS = 2
 
 
