@@ -1,7 +1,6 @@
 """Rule measuring_response: the measuring pass's response to the static CW per span type and
 direction of travel (catenary.stages.correction.step), the step of the correction's dynamic passes."""
 
-import numpy as np
 import pandas as pd
 
 from catenary.physics.config import load_catenary
@@ -9,7 +8,7 @@ from catenary.physics.pantograph import load_pantographs
 from catenary.plumbing.logs import rule_logger
 from catenary.plumbing.parquet import read_table
 from catenary.stages.correction import CorrectionSettings
-from catenary.stages.correction.step import measuring_responses, response_table
+from catenary.stages.correction.step import line_responses, response_table
 
 log = rule_logger("measuring_response", snakemake.log[0])
 catenary = load_catenary(snakemake.input.catenary)
@@ -18,15 +17,9 @@ pantograph = load_pantographs(snakemake.input.pantographs)[settings.pantograph]
 columns = ["direction", "speed_kmh", "force_n"]
 spans = pd.concat([read_table(path).reindex(columns=columns).assign(span_type=span_type)
                    for span_type, path in zip(snakemake.params.span_types, snakemake.input.spans)], ignore_index=True)
-if settings.mode == "dynamic":
-    responses = measuring_responses(spans, catenary, pantograph, default_speed_m_s=settings.speed_kmh / 3.6,
-                                    default_force_n=settings.force_n, time_step_s=settings.time_step_s,
-                                    workers=snakemake.threads)
-else:
-    responses = []   # a quasi-static pass moves one for one with the static CW: the plain step
+responses = line_responses(spans, catenary, pantograph, settings, workers=snakemake.threads)
 for r in responses:
-    n = r.matrix.shape[1] - 1
-    own = r.matrix[r.neighbours * n + np.arange(n), np.arange(n)]
+    own = r.own_response
     log.info("%s, direction %+d, %.1f km/h, %.1f N: a raised dropper moves the height measured there by %.2f–%.2f "
              "of the raise", r.span_type, r.direction, r.speed_m_s * 3.6, r.force_n, own.min(), own.max())
 response_table(responses).to_parquet(snakemake.output.response, index=False)
