@@ -252,7 +252,7 @@ class _Chain:
 
     def run(self, chainage_map: ChainageMap, table_std_m: float, length_std_m: float, posterior: bool = False):
         """Marginal log-likelihood; with ``posterior``, also each support's posterior on the grid,
-        the pairwise posteriors' second moments and the table terms."""
+        the covariances of neighbouring supports (pairwise posteriors) and the table terms."""
         table = self.table_terms(chainage_map, table_std_m)
         log_e = self.log_l + table
         top = log_e.max(axis=1, keepdims=True)
@@ -277,11 +277,14 @@ class _Chain:
             beta[k] = moves[k] @ (e[k + 1] * beta[k + 1]) / norm[k + 1]
         gamma = alpha * beta
         gamma /= gamma.sum(axis=1, keepdims=True)
-        cross = np.full(n, np.nan)                                  # E[x_k x_{k+1}]
+        # Cov(x_k, x_{k+1}) about the posterior means (raw second moments of chainages of
+        # kilometres would cancel to noise where a posterior sits on one node)
+        centred = self.grid - (self.grid * gamma).sum(axis=1, keepdims=True)
+        cross = np.full(n, np.nan)
         for k in range(n - 1):
             xi = alpha[k][:, None] * moves[k] * (e[k + 1] * beta[k + 1])[None, :]
             xi /= xi.sum()
-            cross[k] = float(self.grid[k] @ xi @ self.grid[k + 1])
+            cross[k] = float(centred[k] @ xi @ centred[k + 1])
         return log_likelihood, (gamma, cross, table)
 
 
@@ -384,10 +387,11 @@ def fit_section(evidence: Evidence, table_m: np.ndarray, listed: np.ndarray, len
     table_std *= float(np.sqrt(listed.sum() / (listed.sum() - n_fitted))) if listed.sum() > n_fitted else 1.0
     log_likelihood, (gamma, cross, table) = chain.run(chainage_map, table_std, length_std, posterior=True)
     position, std = _place(chain, gamma, table, chainage_map, table_std)
-    variance = (chain.grid ** 2 * gamma).sum(axis=1) - ((chain.grid * gamma).sum(axis=1)) ** 2
-    mean = (chain.grid * gamma).sum(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = (cross[:-1] - mean[:-1] * mean[1:]) / np.sqrt(variance[:-1] * variance[1:])
+    # each position's variance with its cell's quantisation, as _place gives it (independent
+    # between supports): a posterior on one node is then uncorrelated with its neighbour's
+    mean = (chain.grid * gamma).sum(axis=1, keepdims=True)
+    variance = ((chain.grid - mean) ** 2 * gamma).sum(axis=1) + chain.step ** 2 / 12.0
+    corr = cross[:-1] / np.sqrt(variance[:-1] * variance[1:])
     corr_next = np.r_[np.clip(corr, -1.0, 1.0), np.nan]
     scale = float(np.mean(chainage_map.slope(t)))
     return SectionFit(position, std, corr_next, chainage_map, table_std, length_std / scale, log_likelihood,
