@@ -231,23 +231,22 @@ class _Chain:
         out = _log_normal((self.grid - expected[:, None]) ** 2, variance[:, None]) + np.log(slope)[:, None]
         return np.where(self.listed[:, None], out, 0.0)
 
-    def transitions(self, chainage_map: ChainageMap, length_std_m: float) -> list[np.ndarray]:
-        """P(next support's trial | this support's trial) of each span, truncated to the grid."""
+    def transitions(self, chainage_map: ChainageMap, length_std_m: float) -> np.ndarray:
+        """P(next support's trial | this support's trial) of each span, truncated to the grid:
+        ``(n_spans, n_trials, n_trials)``, every span at once."""
         middle = self.t[:-1] + 0.5 * self.lengths
         expected = chainage_map.slope(middle) * self.lengths
         variance = length_std_m ** 2 + self.step ** 2 / 6.0
-        out = []
-        for k in range(self.t.size - 1):
-            d = self.grid[k + 1, 0] - self.grid[k, 0] - expected[k] + self.lags
-            log_g = -0.5 * d * d / variance
-            p = np.exp(log_g - log_g.max())[self.toeplitz]
-            total = p.sum(axis=1, keepdims=True)
-            if np.all(total > 1e-280):
-                out.append(p / total)
-                continue
-            # a row the span's length puts far off the grid: normalised in logarithms
-            log_p = log_g[self.toeplitz]
-            out.append(np.exp(log_p - np.logaddexp.reduce(log_p, axis=1, keepdims=True)))
+        d = (self.grid[1:, 0] - self.grid[:-1, 0] - expected)[:, None] + self.lags[None, :]
+        log_g = -0.5 * d * d / variance
+        p = np.exp(log_g - log_g.max(axis=1, keepdims=True))[:, self.toeplitz]
+        total = p.sum(axis=2, keepdims=True)
+        with np.errstate(invalid="ignore", divide="ignore"):        # such rows are done again below
+            out = p / total
+        # a row the span's length puts far off the grid: normalised in logarithms
+        for k in np.flatnonzero(~np.all(total > 1e-280, axis=(1, 2))):
+            log_p = log_g[k][self.toeplitz]
+            out[k] = np.exp(log_p - np.logaddexp.reduce(log_p, axis=1, keepdims=True))
         return out
 
     def run(self, chainage_map: ChainageMap, table_std_m: float, length_std_m: float, posterior: bool = False):
