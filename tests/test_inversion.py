@@ -188,7 +188,7 @@ def test_a_config_error_inside_the_inversion_is_not_a_left_out_span(catenary, n2
     def misconfigured(*args, **kwargs):
         raise ConfigError("catenary.droppers.axial_stiffness_n: expected a value > 0, got 0")
 
-    monkeypatch.setattr(inversion, "dropper_lengths_for_cw_heights", misconfigured)
+    monkeypatch.setattr(inversion, "dropper_lengths_for_many", misconfigured)
     w = np.tile(presag_deflection_m(n2, n2.dropper_positions_m), (2, 1))
     with pytest.raises(ConfigError, match="axial_stiffness_n"):
         invert_spans(n2, catenary, ["a", "b"], w)

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from catenary.measurement.registration.mapping import ChainageMap
-from catenary.measurement.registration.section_fit import (fit_section, height_evidence, table_std_from_residuals)
+from catenary.measurement.registration.section_fit import (GRID_STEP_M, Evidence, fit_section, height_evidence,
+                                                           table_std_from_residuals)
 from catenary.measurement.registration.supports import trace_of
 
 SCALE, OFFSET_M = 1.003, 7.0
@@ -113,3 +114,23 @@ def test_the_table_accuracy_from_gaussian_residuals_recovers_the_planted_one():
     assert estimate == pytest.approx(sigma, rel=3 * spread)
     # With no more masts than the map has coefficients the run cannot tell: the configured value.
     assert table_std_from_residuals(residual[:2], trace_std[:2], 2, prior_std_m=0.07) == 0.07
+
+
+def test_supports_placed_within_a_grid_cell_are_uncorrelated_far_down_the_line():
+    # Evidence sharper than the grid (σ 5 mm against its 0.05 m step) puts every support's
+    # posterior on one node, 60 km down the line: what is left of each position's error is its
+    # cell's quantisation, independent between supports, so neighbours are uncorrelated. The
+    # correlation is a covariance about the posterior means over the two variances with their
+    # quantisation (raw second moments of 60 km chainages cancelled to noise there: NaN or ±1,
+    # as on 302 of a 1 000-span line's 1 050 masts).
+    step = GRID_STEP_M
+    truth = 60_000.0 + 60.0 * np.arange(21) + np.random.default_rng(5).uniform(-step / 4, step / 4, 21)
+    nodes = np.round(truth / step) * step                   # each support near a node of its grid
+    grid = nodes[:, None] + step * np.arange(-30, 31)[None, :]
+    log_likelihood = -0.5 * ((grid - truth[:, None]) / 0.005) ** 2
+    evidence = Evidence(grid, log_likelihood - log_likelihood.max(axis=1, keepdims=True), truth, np.full(21, 0.005))
+    fit = fit_section(evidence, truth, np.ones(21, dtype=bool), np.diff(truth),
+                      initial=ChainageMap(np.array([truth[0], 1.0]), float(truth[0])), degree=1, prior_std_m=0.01)
+    assert np.all(np.isfinite(fit.corr_next[:-1])) and np.isnan(fit.corr_next[-1])
+    # |ρ| ≤ 0.01: a posterior that is one node to 1e-6 of its mass has a covariance of that order
+    assert np.max(np.abs(fit.corr_next[:-1])) < 0.01, fit.corr_next

@@ -9,7 +9,7 @@ import pytest
 
 from catenary.measurement.registration.lag import height_lag_m
 from catenary.measurement.registration.runner import _pattern
-from catenary.measurement.registration.supports import Trace, align_pattern
+from catenary.measurement.registration.supports import Trace, align_pattern, pattern_misfit, trace_of
 from catenary.physics.dropper_table import nominal_dropper_lengths
 from catenary.physics.measuring import measuring_pass
 from catenary.physics.pantograph import load_pantographs
@@ -63,3 +63,32 @@ def test_the_height_fit_states_its_own_error(catenary, name):
     # the lag is measured with a span's pattern, the mast with its two half-spans': they differ
     # by ≈ 0.11 / 0.16 m here (mean position), well inside the projection's cut tolerance (0.5 m)
     assert abs(float(np.mean(positions))) < 0.25
+
+
+def test_the_pattern_misfit_is_the_least_squares_fit_of_its_spline_at_every_shift():
+    # The misfit of each shift, solved segment by segment for all shifts at once, against an
+    # independent least-squares fit of the ramps' design at each shift (numpy's SVD solver):
+    # shifts where a knot enters or leaves the window, and ones where the last knot lies beyond
+    # the last sample (its ramps all zero: dependent columns) are among them. Within 1e-9
+    # relative: the segments' normal equations in local coordinates, measured 2.4e-13.
+    rng = np.random.default_rng(7)
+    x = np.sort(rng.uniform(0.0, 100.0, 1000))
+    h = 5.0 + 0.02 * np.abs(np.sin(x / 9.0)) + rng.normal(0.0, 1e-3, x.size)
+    trace = trace_of(x, h, None)
+    kinks = np.array([6.0, 10.0, 14.5, 20.0, 26.0, 33.0, 40.0, 47.0, 54.0, 60.0, 65.0, 70.2, 101.5])
+    shifts = np.arange(-3.0, 3.0001, 0.05)
+    low, high = 5.0, 103.0
+    rss, dof = pattern_misfit(trace, kinks, low, high, shifts)
+    u = x[(x >= low) & (x <= high)] - low
+    y = h[(x >= low) & (x <= high)]
+    expected, most = [], 0
+    for d in shifts:
+        k = kinks + d - low
+        k = k[(k > 0) & (k < high - low)]
+        ramp = np.clip(u[:, None] - k[None, :], 0.0, None)
+        a = np.column_stack([np.ones_like(u), u, u * u, ramp, ramp * ramp])
+        r = y - a @ np.linalg.lstsq(a, y, rcond=None)[0]
+        expected.append(r @ r)
+        most = max(most, u.size - a.shape[1])
+    np.testing.assert_allclose(rss, expected, rtol=1e-9)
+    assert dof == most                 # the largest degrees of freedom over the shifts

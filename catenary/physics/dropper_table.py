@@ -6,7 +6,9 @@ heights, and each unstretched length follows from Hooke's law,
 ``L = l · EA / (EA + F)`` with ``l`` the stretched length. The half dropper weight carried by
 each wire depends on ``L``, so the three steps are repeated until the lengths stop changing
 (a contraction: two or three passes reach 1e-12 m). The same solver builds the nominal
-dropper table, updates dropper lengths in the dynamic correction and inverts measured spans.
+dropper table and updates dropper lengths in the dynamic correction;
+:func:`dropper_lengths_for_many` takes its passes for many targets on one geometry at once (the
+inversion of measured spans: each pass's two linear solves factored once for all of them).
 
 A target that would need a dropper in compression has no taut solution. With
 ``allow_slack=True`` such droppers are made slack instead: their CW height is released (the
@@ -20,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse.linalg import splu
 
 from .config import Catenary, SpanType
 from catenary.plumbing.errors import ConvergenceError, NoTautSolutionError
@@ -105,12 +108,7 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
             if not np.any(pushing):
                 break
             if not allow_slack:
-                bad = np.flatnonzero(pushing)
-                first = np.searchsorted(section.dropper_span, section.dropper_span[bad])
-                where = ", ".join(f"span {s + 1} dropper {i + 1}"
-                                  for s, i in zip(section.dropper_span[bad], bad - first))
-                raise NoTautSolutionError(f"target CW profile needs {where} in compression "
-                                 f"(forces {np.round(force[bad], 3).tolist()} N); no taut dropper lengths produce it")
+                raise NoTautSolutionError(_compression(section, pushing, force))
             slack |= pushing
         # MW under its weight and the dropper tensions.
         loads = model.f_gravity.copy()
@@ -131,6 +129,104 @@ def dropper_lengths_for_cw_heights(section: Section, catenary: Catenary, cw_heig
     else:
         raise ConvergenceError(f"dropper lengths did not settle in {max_iterations} passes (last change {change:.3g} m)")
     return InverseResult(lengths, force, section.with_dropper_lengths(lengths), slack)
+
+
+def _compression(section: Section, pushing: np.ndarray, force: np.ndarray) -> str:
+    """Why a target has no taut solution: the droppers it needs in compression, and their forces."""
+    bad = np.flatnonzero(pushing)
+    first = np.searchsorted(section.dropper_span, section.dropper_span[bad])
+    where = ", ".join(f"span {s + 1} dropper {i + 1}" for s, i in zip(section.dropper_span[bad], bad - first))
+    return (f"target CW profile needs {where} in compression (forces {np.round(force[bad], 3).tolist()} N); "
+            "no taut dropper lengths produce it")
+
+
+def dropper_lengths_for_many(section: Section, catenary: Catenary, cw_heights_m: np.ndarray, *,
+                             tolerance_m: float = 1e-12, max_iterations: int = 20
+                             ) -> tuple[np.ndarray, list[str]]:
+    """:func:`dropper_lengths_for_cw_heights` (taut droppers) for many targets on one geometry.
+
+    The section's wires, tensions and supports are the same for every target: only the
+    prescribed CW heights and, through the droppers' half weights, the loads differ, so the two
+    linear solves of each pass are one factorisation each, solved for every target at once. The
+    passes are those of the single-target solver, to the same tolerance.
+
+    Parameters
+    ----------
+    section : Section
+        Geometry and tensions, its droppers vertical; its dropper lengths are the starting guess
+        of every target.
+    catenary : Catenary
+    cw_heights_m : numpy.ndarray, shape (n_targets, n_droppers)
+        Target CW heights at the droppers [m].
+
+    Returns
+    -------
+    lengths : numpy.ndarray, shape (n_targets, n_droppers)
+        Unstretched dropper lengths [m]; NaN for a target without a taut solution.
+    failures : list of str
+        Per target, empty or why it has no taut solution (the droppers it needs in compression).
+
+    Raises
+    ------
+    ValueError
+        If the droppers are inclined or the targets' shape is wrong (programming errors).
+    ConvergenceError
+        If the lengths do not settle.
+    """
+    target = np.atleast_2d(np.asarray(cw_heights_m, dtype=float))
+    n_d = section.dropper_lengths_m.size
+    if target.shape[1:] != (n_d,):
+        raise ValueError(f"cw_heights_m: expected shape (n_targets, {n_d}), got {target.shape}")
+    if np.any(section.clamp_offset_m):
+        raise ValueError("dropper_lengths_for_many: vertical droppers only (inclined ones: dropper_lengths_for_cw_heights)")
+    model = StaticModel(section, catenary)
+    ea, g = catenary.droppers.axial_stiffness_n, catenary.gravity_m_s2
+    half_weight = 0.5 * g * catenary.droppers.mass_per_length_kg_m       # per metre of dropper, on each wire [N/m]
+    k = model.k_wires.tocsr()
+    cw, mw = model.dropper_cw_dof, model.dropper_mw_dof
+    # CW with its dropper points prescribed (their reactions are the tensions); the MW loaded by them
+    fixed_cw = np.concatenate([model.fixed, cw])
+    free_cw = np.setdiff1d(model.free, cw)
+    solve_cw = splu(k[free_cw][:, free_cw].tocsc()).solve
+    solve_all = splu(k[model.free][:, model.free].tocsc()).solve
+    supports = k[free_cw][:, model.fixed] @ model.fixed_values
+    supports_all = k[model.free][:, model.fixed] @ model.fixed_values
+    lengths = np.broadcast_to(section.dropper_lengths_m, target.shape).copy()
+    failures = [""] * target.shape[0]
+    active = np.arange(target.shape[0])
+    for _ in range(max_iterations):
+        m = active.size
+        loads = np.repeat(model.f_gravity[:, None], m, axis=1)
+        extra = -half_weight * (lengths[active] - section.dropper_lengths_m).T           # (n_d, m)
+        np.add.at(loads, cw, extra)
+        np.add.at(loads, mw, extra)
+        u = np.zeros((model.n_dofs, m))
+        u[model.fixed] = model.fixed_values[:, None]
+        u[cw] = target[active].T
+        u[free_cw] = solve_cw(loads[free_cw] - supports[:, None] - k[free_cw][:, cw] @ target[active].T)
+        force = (k[cw] @ u - loads[cw]).T                                                 # (m, n_d)
+        pushing = force <= 0.0
+        bad = pushing.any(axis=1)
+        for row in np.flatnonzero(bad):
+            failures[active[row]] = _compression(section, pushing[row], force[row])
+            lengths[active[row]] = np.nan
+        keep = ~bad
+        active, force, loads = active[keep], force[keep], loads[:, keep]
+        if active.size == 0:
+            break
+        np.add.at(loads, mw, -force.T)
+        np.add.at(loads, cw, force.T)
+        u_mw = np.zeros((model.n_dofs, active.size))
+        u_mw[model.fixed] = model.fixed_values[:, None]
+        u_mw[model.free] = solve_all(loads[model.free] - supports_all[:, None])
+        new = (u_mw[mw].T - target[active]) * ea / (ea + force)
+        change = np.max(np.abs(new - lengths[active]))
+        lengths[active] = new
+        if change < tolerance_m:
+            break
+    else:
+        raise ConvergenceError(f"dropper lengths did not settle in {max_iterations} passes (last change {change:.3g} m)")
+    return lengths, failures
 
 
 def nominal_dropper_lengths(span_type: SpanType, catenary: Catenary) -> InverseResult:

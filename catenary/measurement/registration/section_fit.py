@@ -231,28 +231,27 @@ class _Chain:
         out = _log_normal((self.grid - expected[:, None]) ** 2, variance[:, None]) + np.log(slope)[:, None]
         return np.where(self.listed[:, None], out, 0.0)
 
-    def transitions(self, chainage_map: ChainageMap, length_std_m: float) -> list[np.ndarray]:
-        """P(next support's trial | this support's trial) of each span, truncated to the grid."""
+    def transitions(self, chainage_map: ChainageMap, length_std_m: float) -> np.ndarray:
+        """P(next support's trial | this support's trial) of each span, truncated to the grid:
+        ``(n_spans, n_trials, n_trials)``, every span at once."""
         middle = self.t[:-1] + 0.5 * self.lengths
         expected = chainage_map.slope(middle) * self.lengths
         variance = length_std_m ** 2 + self.step ** 2 / 6.0
-        out = []
-        for k in range(self.t.size - 1):
-            d = self.grid[k + 1, 0] - self.grid[k, 0] - expected[k] + self.lags
-            log_g = -0.5 * d * d / variance
-            p = np.exp(log_g - log_g.max())[self.toeplitz]
-            total = p.sum(axis=1, keepdims=True)
-            if np.all(total > 1e-280):
-                out.append(p / total)
-                continue
-            # a row the span's length puts far off the grid: normalised in logarithms
-            log_p = log_g[self.toeplitz]
-            out.append(np.exp(log_p - np.logaddexp.reduce(log_p, axis=1, keepdims=True)))
+        d = (self.grid[1:, 0] - self.grid[:-1, 0] - expected)[:, None] + self.lags[None, :]
+        log_g = -0.5 * d * d / variance
+        p = np.exp(log_g - log_g.max(axis=1, keepdims=True))[:, self.toeplitz]
+        total = p.sum(axis=2, keepdims=True)
+        with np.errstate(invalid="ignore", divide="ignore"):        # such rows are done again below
+            out = p / total
+        # a row the span's length puts far off the grid: normalised in logarithms
+        for k in np.flatnonzero(~np.all(total > 1e-280, axis=(1, 2))):
+            log_p = log_g[k][self.toeplitz]
+            out[k] = np.exp(log_p - np.logaddexp.reduce(log_p, axis=1, keepdims=True))
         return out
 
     def run(self, chainage_map: ChainageMap, table_std_m: float, length_std_m: float, posterior: bool = False):
         """Marginal log-likelihood; with ``posterior``, also each support's posterior on the grid,
-        the pairwise posteriors' second moments and the table terms."""
+        the covariances of neighbouring supports (pairwise posteriors) and the table terms."""
         table = self.table_terms(chainage_map, table_std_m)
         log_e = self.log_l + table
         top = log_e.max(axis=1, keepdims=True)
@@ -277,11 +276,14 @@ class _Chain:
             beta[k] = moves[k] @ (e[k + 1] * beta[k + 1]) / norm[k + 1]
         gamma = alpha * beta
         gamma /= gamma.sum(axis=1, keepdims=True)
-        cross = np.full(n, np.nan)                                  # E[x_k x_{k+1}]
+        # Cov(x_k, x_{k+1}) about the posterior means (raw second moments of chainages of
+        # kilometres would cancel to noise where a posterior sits on one node)
+        centred = self.grid - (self.grid * gamma).sum(axis=1, keepdims=True)
+        cross = np.full(n, np.nan)
         for k in range(n - 1):
             xi = alpha[k][:, None] * moves[k] * (e[k + 1] * beta[k + 1])[None, :]
             xi /= xi.sum()
-            cross[k] = float(self.grid[k] @ xi @ self.grid[k + 1])
+            cross[k] = float(centred[k] @ xi @ centred[k + 1])
         return log_likelihood, (gamma, cross, table)
 
 
@@ -384,10 +386,11 @@ def fit_section(evidence: Evidence, table_m: np.ndarray, listed: np.ndarray, len
     table_std *= float(np.sqrt(listed.sum() / (listed.sum() - n_fitted))) if listed.sum() > n_fitted else 1.0
     log_likelihood, (gamma, cross, table) = chain.run(chainage_map, table_std, length_std, posterior=True)
     position, std = _place(chain, gamma, table, chainage_map, table_std)
-    variance = (chain.grid ** 2 * gamma).sum(axis=1) - ((chain.grid * gamma).sum(axis=1)) ** 2
-    mean = (chain.grid * gamma).sum(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = (cross[:-1] - mean[:-1] * mean[1:]) / np.sqrt(variance[:-1] * variance[1:])
+    # each position's variance with its cell's quantisation, as _place gives it (independent
+    # between supports): a posterior on one node is then uncorrelated with its neighbour's
+    mean = (chain.grid * gamma).sum(axis=1, keepdims=True)
+    variance = ((chain.grid - mean) ** 2 * gamma).sum(axis=1) + chain.step ** 2 / 12.0
+    corr = cross[:-1] / np.sqrt(variance[:-1] * variance[1:])
     corr_next = np.r_[np.clip(corr, -1.0, 1.0), np.nan]
     scale = float(np.mean(chainage_map.slope(t)))
     return SectionFit(position, std, corr_next, chainage_map, table_std, length_std / scale, log_likelihood,

@@ -367,7 +367,8 @@ def _block_posteriors(prior: SpanPrior, w_obs: np.ndarray, l_inv: np.ndarray, lo
             z[:, part == c] = centre[sl, None, :] + np.einsum("kde,se->ksd", chol[sl], t[part == c])
         log_q = np.full((m, n_samples), -np.inf)
         for centre, chol in zip(centres, chols):
-            u = np.linalg.solve(chol[sl][:, None], (z - centre[sl, None, :])[..., None])[..., 0]
+            # the scores of every draw under this component: L⁻¹ (z − centre), one inverse a span
+            u = (z - centre[sl, None, :]) @ np.linalg.inv(chol[sl]).transpose(0, 2, 1)
             log_det = np.sum(np.log(np.diagonal(chol[sl], axis1=1, axis2=2)), axis=1)
             log_q = np.logaddexp(log_q, -0.5 * (df + d) * np.log1p(np.sum(u * u, axis=2) / df) - log_det[:, None])
         f, force, bad = prior.evaluate(z.reshape(-1, d))
