@@ -281,7 +281,7 @@ def _spline_rss(u: np.ndarray, h: np.ndarray, knots: np.ndarray) -> tuple[np.nda
     moments = np.stack([np.stack([m[i + j] for j in range(3)], axis=-1) for i in range(3)], axis=-2)
     rhs = np.stack([moment(hb), moment(hb * vf), moment(hb * v2)], axis=-1)      # (trials, seg, 3)
     # (a_j, b_j, c_j) = B_j θ: a_j carries the segments before it
-    d = np.diff(np.concatenate([start, np.full((n_trials, 1), np.inf)], axis=1), axis=1)[:, :-1]
+    d = np.diff(start, axis=1)                                                   # the segments' lengths but the last
     b = np.zeros((n_trials, n_seg, 3, unknowns))
     b[:, :, 0, 0] = 1.0
     for j in range(n_seg):
