@@ -22,7 +22,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse.linalg import splu
 
 from .config import Catenary, SpanType
 from catenary.plumbing.errors import ConvergenceError, NoTautSolutionError
@@ -146,9 +145,10 @@ def dropper_lengths_for_many(section: Section, catenary: Catenary, cw_heights_m:
     """:func:`dropper_lengths_for_cw_heights` (taut droppers) for many targets on one geometry.
 
     The section's wires, tensions and supports are the same for every target: only the
-    prescribed CW heights and, through the droppers' half weights, the loads differ, so the two
-    linear solves of each pass are one factorisation each, solved for every target at once. The
-    passes are those of the single-target solver, to the same tolerance.
+    prescribed CW heights and, through the droppers' half weights, the loads differ, so each of a
+    pass's two linear solves is one factorisation for every target at once (a load case each,
+    :meth:`~catenary.physics.static.StaticModel.linear_solve`). The passes are those of the
+    single-target solver, to the same tolerance.
 
     Parameters
     ----------
@@ -180,31 +180,22 @@ def dropper_lengths_for_many(section: Section, catenary: Catenary, cw_heights_m:
     if np.any(section.clamp_offset_m):
         raise ValueError("dropper_lengths_for_many: vertical droppers only (inclined ones: dropper_lengths_for_cw_heights)")
     model = StaticModel(section, catenary)
-    ea, g = catenary.droppers.axial_stiffness_n, catenary.gravity_m_s2
-    half_weight = 0.5 * g * catenary.droppers.mass_per_length_kg_m       # per metre of dropper, on each wire [N/m]
-    k = model.k_wires.tocsr()
+    ea = catenary.droppers.axial_stiffness_n
+    half_weight = 0.5 * catenary.gravity_m_s2 * catenary.droppers.mass_per_length_kg_m   # on each wire [N/m]
     cw, mw = model.dropper_cw_dof, model.dropper_mw_dof
-    # CW with its dropper points prescribed (their reactions are the tensions); the MW loaded by them
-    fixed_cw = np.concatenate([model.fixed, cw])
-    free_cw = np.setdiff1d(model.free, cw)
-    solve_cw = splu(k[free_cw][:, free_cw].tocsc()).solve
-    solve_all = splu(k[model.free][:, model.free].tocsc()).solve
-    supports = k[free_cw][:, model.fixed] @ model.fixed_values
-    supports_all = k[model.free][:, model.fixed] @ model.fixed_values
+    no_droppers = np.zeros(n_d, dtype=bool)
     lengths = np.broadcast_to(section.dropper_lengths_m, target.shape).copy()
     failures = [""] * target.shape[0]
     active = np.arange(target.shape[0])
     for _ in range(max_iterations):
-        m = active.size
-        loads = np.repeat(model.f_gravity[:, None], m, axis=1)
-        extra = -half_weight * (lengths[active] - section.dropper_lengths_m).T           # (n_d, m)
+        # the model's gravity loads with each target's half dropper weights (a column each)
+        loads = np.repeat(model.f_gravity[:, None], active.size, axis=1)
+        extra = -half_weight * (lengths[active] - section.dropper_lengths_m).T
         np.add.at(loads, cw, extra)
         np.add.at(loads, mw, extra)
-        u = np.zeros((model.n_dofs, m))
-        u[model.fixed] = model.fixed_values[:, None]
-        u[cw] = target[active].T
-        u[free_cw] = solve_cw(loads[free_cw] - supports[:, None] - k[free_cw][:, cw] @ target[active].T)
-        force = (k[cw] @ u - loads[cw]).T                                                 # (m, n_d)
+        # CW with its dropper points prescribed: the reactions there are the dropper tensions
+        u, k, f = model.linear_solve(no_droppers, loads, cw, target[active].T)
+        force = (k @ u - f)[cw].T
         pushing = force <= 0.0
         bad = pushing.any(axis=1)
         for row in np.flatnonzero(bad):
@@ -214,11 +205,10 @@ def dropper_lengths_for_many(section: Section, catenary: Catenary, cw_heights_m:
         active, force, loads = active[keep], force[keep], loads[:, keep]
         if active.size == 0:
             break
+        # MW under its weight and the dropper tensions
         np.add.at(loads, mw, -force.T)
         np.add.at(loads, cw, force.T)
-        u_mw = np.zeros((model.n_dofs, active.size))
-        u_mw[model.fixed] = model.fixed_values[:, None]
-        u_mw[model.free] = solve_all(loads[model.free] - supports_all[:, None])
+        u_mw, _, _ = model.linear_solve(no_droppers, loads)
         new = (u_mw[mw].T - target[active]) * ea / (ea + force)
         change = np.max(np.abs(new - lengths[active]))
         lengths[active] = new

@@ -291,27 +291,31 @@ class StaticModel:
         ----------
         taut : numpy.ndarray of bool
             Droppers carrying their axial stiffness.
-        f_ext : numpy.ndarray
-            External nodal loads [N] (e.g. ``f_gravity``).
+        f_ext : numpy.ndarray, shape (n_dofs,) or (n_dofs, m)
+            External nodal loads [N] (e.g. ``f_gravity``); a column per load case, solved with
+            one factorisation.
         extra_fixed, extra_values : numpy.ndarray, optional
-            Further prescribed DOFs and their values [m] (the inverse static solver prescribes
-            the CW at the droppers and reads the dropper tensions as reactions).
+            Further prescribed DOFs and their values [m], shape (k,) or, with load cases,
+            (k, m) (the inverse static solver prescribes the CW at the droppers and reads the
+            dropper tensions as reactions).
 
         Returns
         -------
         u, k, f
-            The DOFs, the total stiffness and load (reactions are ``k @ u − f``).
+            The DOFs, the total stiffness and load (reactions are ``k @ u − f``), a column per
+            load case.
         """
         kd, fd = self.dropper_matrices(taut)
         k = (self.k_wires + kd).tocsr()
-        f = f_ext + fd
-        fixed, values = self.fixed, self.fixed_values
-        free = self.free
+        cases = np.ndim(f_ext) == 2
+        f = f_ext + (fd[:, None] if cases else fd)
+        fixed, free = self.fixed, self.free
+        values = np.repeat(self.fixed_values[:, None], f.shape[1], axis=1) if cases else self.fixed_values
         if extra_fixed is not None:
             fixed = np.concatenate([fixed, extra_fixed])
             values = np.concatenate([values, extra_values])
             free = np.setdiff1d(free, extra_fixed)
-        u = np.zeros(self.n_dofs)
+        u = np.zeros(f.shape)
         u[fixed] = values
         rhs = f[free] - k[free][:, fixed] @ values
         kff = k[free][:, free].tocsc()

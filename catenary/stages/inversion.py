@@ -8,7 +8,7 @@ loaded by them gives its heights, and Hooke's law the unstretched lengths. That 
 point of :func:`catenary.physics.dropper_table.dropper_lengths_for_cw_heights` (the solver the dynamic
 correction uses) on the single-span model of the paper (:func:`catenary.physics.section.single_span`),
 solved for a block of spans at once: one geometry, their targets side by side
-(:func:`catenary.physics.dropper_table.dropper_lengths_for_many`; 5 000 spans in ≈ 1 s, against
+(:func:`catenary.physics.dropper_table.dropper_lengths_for_many`; 5 000 spans in ≈ 1.5 s, against
 ≈ 0.02 s a span one by one).
 
 W is measured from the chord joining the CW at the two steady arms (negative below); the
@@ -41,7 +41,7 @@ from catenary.physics.section import single_span
 from catenary.plumbing.errors import InputError, NoTautSolutionError
 from catenary.plumbing.workers import map_blocks
 
-#: Spans per block of :func:`invert_spans`' workers, solved together (≈ 0.2 ms a span).
+#: Spans per block of :func:`invert_spans`' workers, solved together (≈ 0.3 ms a span).
 BLOCK_SPANS = 256
 CM = 1e2
 
