@@ -59,7 +59,8 @@ log.info("settings: %s", settings.as_mapping())
 data = read_corrected(snakemake.input.corrected, span_type)
 log.info("%s: %d converged spans used, %d left out", span_type.name, data.w_m.shape[0], len(data.left_out))
 pantograph = load_pantographs(snakemake.input.pantographs)[correction.pantograph]
-measuring = measuring_pass_of(snakemake.input.corrected, span_type, catenary, pantograph, correction)
+measuring = measuring_pass_of(snakemake.input.corrected, span_type, catenary, pantograph, correction,
+                              workers=snakemake.threads)
 log.info("measuring pass: %.1f km/h, declared force %.1f N; ∂W/∂F at the droppers %s mm/N", 3.6 * measuring.speed_m_s,
          measuring.force_n, " ".join(f"{1e3 * g:.3f}" for g in measuring.influence_m_n))
 measurements = MeasurementSettings.from_mapping(snakemake.params.measurements)
@@ -95,7 +96,7 @@ budget = ModelErrorSettings.from_mapping(snakemake.params.model_error)
 asked = questions(line.run, car_force_n=budget.force_bound_n(measuring.force_n)
                   if snakemake.params.model_error_enabled else None)
 recommendations = recommend(line.run.context, asked, measurements, Extent.of_line(line.run.n_spans, places),
-                            settings.power)
+                            settings.power, workers=snakemake.threads)
 for r in recommendations[recommendations["recommended"]].itertuples():
     log.info("%s: %s — %s: measure %s on %d (%s; %.3g h), predicted power %.2f%s", span_type.name, r.kind, r.question,
              r.quantity, r.extent, r.per, r.cost_h, r.power, "" if r.enough else " (not enough)")

@@ -1,7 +1,8 @@
 """Rule identify: maximum-likelihood identification of one span type's input laws.
 
-The profile intervals' ends are searched in ``threads`` worker processes, each with one BLAS
-thread (set here, before NumPy loads; Snakemake sets the job's ``threads``).
+The job's ``threads`` processes share each of the optimiser's J evaluations, then the standard
+errors' points and what follows s_opt (marginals, normality tests, band, profile intervals); each
+process has one BLAS thread (set here, before NumPy loads; Snakemake sets the job's ``threads``).
 """
 
 from catenary.plumbing.blas import one_blas_thread

@@ -2,6 +2,7 @@
 Monte Carlo and analytic results, and the forward selection on spans of known truth."""
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy import stats
 
@@ -114,6 +115,9 @@ def test_force_influence_is_the_static_point_load_response(catenary, n2):
     # part of the uplift: ≈ 0.17 mm/N mid-span (a 6 N error lifts W by ≈ 1 mm), < 0 at the ends.
     g = force_influence(n2, catenary, pantograph, speed_m_s=40 / 3.6, mode="quasi_static")
     assert 0.1e-3 < g[4] < 0.3e-3 and g[0] < 0 and g[-1] < 0
+    # its two passes in two processes: the same influence, bit for bit
+    np.testing.assert_array_equal(g, force_influence(n2, catenary, pantograph, speed_m_s=40 / 3.6,
+                                                     mode="quasi_static", workers=2))
 
 
 def test_boundary_mixture_is_the_law_of_a_one_sided_likelihood_ratio():
@@ -290,7 +294,8 @@ def test_the_verdict_and_its_figures_do_not_depend_on_the_workers(catenary, n2):
     # and finish in any order, they give the same tests, in config order. Small design (N = 500,
     # 30 spans, 3 candidates, one step) and a budget of 60 evaluations per refit (the two best
     # restarted once): what is compared is the scheduling, not the optimum. With a budget of
-    # 300 and 40 spans, both runs took 111 s on 2 cores (it was in `make test-slow`); now 41 s.
+    # 300 and 40 spans, both runs took 111 s on 2 cores (it was in `make test-slow`); now 8 s with
+    # the recommendation tables (2026-11-28).
     settings, data = _small_tension_case(catenary, n2, 60, ["messenger_tension_variability", "dropper_creep",
                                                             "cw_longitudinal_offset"], n_spans=30, seed=23)
     one, two = (diagnose(n2, catenary, data, IDENT, settings, workers=w) for w in (1, 2))
@@ -299,6 +304,16 @@ def test_the_verdict_and_its_figures_do_not_depend_on_the_workers(catenary, n2):
         assert (a.effect, a.delta_loglik, a.p_value, a.n_evaluations) == (b.effect, b.delta_loglik, b.p_value,
                                                                           b.n_evaluations)
     assert (one.steps[0].verdict, one.steps[0].effect) == (two.steps[0].verdict, two.steps[0].effect)
+    # What to measure next: each model's moments and each question's options in worker
+    # processes give the table of one process, bit for bit.
+    from catenary.measurement.channels.settings import MeasurementSettings
+    from catenary.stages.diagnosis.recommend import Extent, questions, recommend
+
+    asked = questions(one)
+    assert asked
+    tables = [recommend(run.context, asked, MeasurementSettings(), Extent(30, 3, 33), 0.8, workers=w)
+              for run, w in ((one, 1), (two, 2))]
+    pd.testing.assert_frame_equal(*tables, check_exact=True)
 
 
 def test_a_leading_refit_that_spent_its_budget_is_restarted_and_only_gains(catenary, n2):

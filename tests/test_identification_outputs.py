@@ -21,10 +21,10 @@ from catenary.stages.identification.data import read_corrected
 from catenary.stages.identification.design import draw_unit_design
 from catenary.stages.identification.fit import identify, make_likelihood
 from catenary.stages.identification.likelihood import Likelihood, fit_gaussian, kernel_bandwidth
-from catenary.stages.identification.normality import henze_zirkler
+from catenary.stages.identification.normality import henze_zirkler, normality_report
 from catenary.stages.identification.outputs import IdentificationPaths, write_identification
 from catenary.stages.identification.report import markdown_report
-from catenary.stages.identification.runner import marginal_densities, normality_report, run_identification
+from catenary.stages.identification.runner import marginal_densities, run_identification
 from catenary.stages.identification.settings import DETERMINISTIC_CV, IdentificationSettings
 from catenary.stages.identification.synthetic import simulate_deflections
 from catenary.stages.identification.tables import S_OPT_COLUMNS
@@ -128,6 +128,22 @@ def test_band_holds_its_level_of_fresh_spans_at_every_station(catenary, n2, mode
     assert np.all(band.upper_m[interior] - band.lower_m[interior] > 1e-3)
     assert np.all(np.abs(coverage - 0.98) < 0.016)
     assert abs(coverage.mean() - 0.98) < 0.0094
+
+
+def test_what_follows_s_opt_is_the_same_in_two_worker_processes(written, catenary, n2, data):
+    # After s_opt, the profile intervals' ends, the normality tests, the estimators' marginals
+    # and the band are independent tasks handed to worker processes (the largest design first):
+    # every one of them the same, bit for bit, as in one process, and each in its own place.
+    run, _, settings = written
+    two = run_identification(n2, catenary, data, settings, left_out=[("M9-M10", "test")], workers=2)
+    assert two.profiles == run.profiles and two.normality == run.normality
+    assert [m.n_samples for m in two.marginals] == list(settings.estimators_n_samples)
+    for a, b in zip(run.marginals, two.marginals):
+        for name in ("grid_m", "gaussian", "kernel", "l1_distance"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    for name in ("x_m", "lower_m", "upper_m", "median_m"):
+        np.testing.assert_array_equal(getattr(run.band, name), getattr(two.band, name))
+    np.testing.assert_array_equal(run.data_in_band, two.data_in_band)
 
 
 def test_s_opt_csv_has_the_columns_and_fixed_means_keep_their_start(written, n2, catenary):

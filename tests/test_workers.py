@@ -9,18 +9,21 @@ a section's profiles read by the file's row groups."""
 
 import copy
 import dataclasses
+import os
 
 import numpy as np
 import pandas as pd
+import pytest
 from scipy import stats
 from catenary.measurement.projection import PROFILE_SCHEMA
 from catenary.measurement.registration import runner as registration
 from catenary.measurement.registration import supports
 from catenary.plumbing.parquet import distinct_values, read_table, write_table
-from catenary.plumbing.workers import map_blocks
+from catenary.plumbing.workers import KeptProcesses, map_blocks, map_each
 from catenary.stages.diagnosis import refits
 from catenary.stages.diagnosis.locate import bootstrap_eigenvalues
 from catenary.stages.identification.fit import identify, make_likelihood
+from catenary.stages.identification.likelihood import fit_gaussian
 from catenary.stages.identification.profile import profile_intervals
 from catenary.stages.identification.synthetic import simulate_deflections
 from catenary.stages.maintenance import population
@@ -323,6 +326,10 @@ def test_the_hessian_and_scores_are_the_same_with_two_workers_and_recorded_in_or
     lik = make_likelihood(n2, catenary, data, start=start, n_samples=600, seed=1, system_height_mode=MODE)
     one = identify(lik, start, mast_pairs=np.array([[k, k + 1] for k in range(39)]), covariance="sandwich")
     two = identify(lik, start, mast_pairs=np.array([[k, k + 1] for k in range(39)]), covariance="sandwich", workers=2)
+    # the optimiser's J shared by two processes: the same path, evaluation by evaluation
+    assert one.j_opt == two.j_opt and one.n_evaluations == two.n_evaluations
+    np.testing.assert_array_equal(one.trace_j, two.trace_j)
+    np.testing.assert_array_equal(one.theta_opt, two.theta_opt)
     np.testing.assert_array_equal(one.theta_covariance, two.theta_covariance)
     assert [(e.mu_se, e.sigma_se) for e in one.estimates] == [(e.mu_se, e.sigma_se) for e in two.estimates]
     assert one.n_hessian_evaluations == two.n_hessian_evaluations
@@ -366,3 +373,83 @@ def test_the_measuring_passs_responses_are_the_same_with_two_workers(catenary, n
         own = np.diag(rows)
         assert np.all((own >= 0.7) & (own <= 1.0))
         assert np.all(own > np.abs(rows - np.diag(own)).max(axis=1))
+
+
+def test_kept_processes_give_each_part_in_order_raise_a_helpers_error_and_stay_in_step():
+    # Part 0 in this process, the others in the helpers, results in the parts' order; an error
+    # in a helper is raised here with its type and message, and the next call gets its own
+    # answers (none left over from the failed one); in a process forked from the owner every
+    # part is computed there, in turn.
+    def part(k, fail=False):
+        if fail:
+            raise ValueError(f"part {k} failed")
+        return k, os.getpid()
+
+    with KeptProcesses(part, 3) as kept:
+        out = kept.map([(0,), (1,), (2,)])
+        assert [k for k, _ in out] == [0, 1, 2]
+        assert out[0][1] == os.getpid() and len({pid for _, pid in out}) == 3
+        with pytest.raises(ValueError, match="part 2 failed"):
+            kept.map([(0,), (1,), (2, True)])
+        assert [k for k, _ in kept.map([(5,), (6,)])] == [5, 6]
+        forked = map_each(lambda k: {pid for _, pid in kept.map([(0,), (1,)])}, 2, 2, 1)
+        assert all(len(pids) == 1 and os.getpid() not in pids for pids in forked)
+        with pytest.raises(ValueError, match="at most 3"):
+            kept.map([(0,)] * 4)
+
+
+def test_a_j_shared_by_kept_processes_is_the_same_and_its_blocks_add_up_to_the_whole_sample(catenary, n2,
+                                                                                            start):  # noqa: F811
+    # J's model sample is summed in fixed blocks whichever process computes them: with 2 or 3
+    # processes J and every span's ln p are those of one, bit for bit, and a T_MW out of the
+    # model's range is refused the same way. The blocks' moments added up are those of the whole
+    # sample at once (fit_gaussian of the taper-weighted sample, another order of the same sums:
+    # 1e-9 relative on the covariance's factor, whose entries are differences of sums ~1e4 times
+    # larger than them). The moments read other data give that data's J (the model-error
+    # budget reads every shifted W under one model sample): 1e-12 relative, the sums' rounding.
+    model = make_likelihood(n2, catenary, np.zeros((1, 9)), start=start, n_samples=2).model
+    means, sigmas = _laws(start, 818.0)
+    data = simulate_deflections(model, means, sigmas, 60, seed=4, system_height_mode=MODE)
+    lik = make_likelihood(n2, catenary, data, start=start, n_samples=1000, seed=1, system_height_mode=MODE)
+    assert len(lik.moment_blocks) == 4
+    far = means.copy()
+    far[9] *= 3.0                                            # T_MW far beyond the fast model's range
+    points = [(means, sigmas), (means, 1.3 * sigmas), (far, sigmas)]
+    one = [lik.evaluate(m, s) for m, s in points]
+    assert [v.status for v in one] == ["ok", "ok", "tension_out_of_bounds"]
+    for workers in (2, 3):
+        with lik.parallel(workers):
+            other = [lik.evaluate(m, s) for m, s in points]
+        for a, b in zip(one, other):
+            assert (a.j, a.status) == (b.j, b.status)
+            if a.log_density is not None:
+                np.testing.assert_array_equal(a.log_density, b.log_density)
+    sample = lik.model_sample(means, sigmas)
+    whole = fit_gaussian(sample.w_m, sample.weight)
+    np.testing.assert_allclose(one[0].fit.mean, whole.mean, rtol=1e-12)
+    np.testing.assert_allclose(one[0].fit.chol, whole.chol, rtol=1e-9, atol=1e-9 * np.abs(whole.chol).max())
+    shifted = lik.with_data(data + 2e-4)
+    assert shifted.value_of(lik.moments(means, sigmas)).j == pytest.approx(shifted(means, sigmas), rel=1e-12)
+
+
+def test_the_diagnosis_fast_models_built_in_workers_are_those_built_here(catenary, n2):
+    # A model set's models built side by side in worker processes (and pickled back) evaluate
+    # as the ones built here, bit for bit: the pinned base, and the CW offset's (an interpolant
+    # in δ too, whose condensation is a method, not a closure, so that it travels whole).
+    from catenary.physics.dropper_table import nominal_dropper_lengths
+    from catenary.physics.fast import FastSpanModel
+    from catenary.stages.diagnosis.model import CONTACT_DEGREE, OFFSET_BOUNDS_M, OFFSET_DEGREE, ModelSet
+
+    models = ModelSet(n2, catenary, (15_000.0, 26_000.0), 0)
+    models.prepare([(frozenset(), None), (frozenset({"offset"}), None), (frozenset(), None)], workers=2)
+    rng = np.random.default_rng(3)
+    lengths = nominal_dropper_lengths(n2, catenary).dropper_lengths_m + 0.005 * rng.standard_normal((50, 9))
+    t_mw = rng.uniform(18_000.0, 23_000.0, 50)
+    for needs, offset in ((frozenset(), {}), (frozenset({"offset"}), {"cw_offset_m": rng.uniform(-0.2, 0.2, 50)})):
+        here = FastSpanModel(n2, catenary, messenger_tension_bounds_n=(15_000.0, 26_000.0), degree=models.degree,
+                             contact_degree=CONTACT_DEGREE, cw_clamp_offset_bounds_m=OFFSET_BOUNDS_M if offset else None,
+                             offset_degree=OFFSET_DEGREE)
+        built = models.model(needs)
+        a = built.evaluate(lengths, t_mw, 0.01, -0.01, **offset)
+        assert built.cw_clamp_offset_bounds_m == here.cw_clamp_offset_bounds_m
+        np.testing.assert_array_equal(a.w_m, here.evaluate(lengths, t_mw, 0.01, -0.01, **offset).w_m)

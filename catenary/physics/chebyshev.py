@@ -213,7 +213,7 @@ class StackedMap:
         return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _sum_over_basis(y, basis, out):       # pragma: no cover - compiled; tested through StackedMap
     """``out[i, o] = Σ_k basis[k, i] y[i, k n_out + o]`` (the basis sum of :class:`StackedMap`)."""
     n_out = out.shape[1]
@@ -227,7 +227,7 @@ def _sum_over_basis(y, basis, out):       # pragma: no cover - compiled; tested 
                 out[i, o] += b * y[i, base + o]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _apply_per_sample(matrices, x, out):  # pragma: no cover - compiled; tested through StackedMap
     """``out[i, o] = Σ_j matrices[i, o n_in + j] x[i, j]``: each sample's own matrix (row-major)
     applied to its own vector."""

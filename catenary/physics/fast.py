@@ -359,16 +359,14 @@ class FastSpanModel:
             for bound in (off_lo, off_hi):
                 single_span(span_type, self.reference_lengths_m).with_dropper_offsets(bound)
         self.cw_clamp_offset_bounds_m = (off_lo, off_hi)
-        offset = self.cw_clamp_offset_m
         ea = catenary.droppers.axial_stiffness_n
         self._ea = ea
         d_ref = np.diag(self.reference_lengths_m / ea)
         n_extra = len(EXTRA_COLUMNS) if self.extended else 0
 
-        def condensed(p: np.ndarray, **kwargs) -> CondensedSpan:
-            delta = p[2] if cw_clamp_offset_bounds_m is not None else offset
-            return condense_span(span_type, catenary, 1.0 / p[0], 1.0 / p[1], delta, **around, **kwargs)
-
+        self._around = around
+        self._offset_is_input = cw_clamp_offset_bounds_m is not None
+        condensed = self._condensed
         def force_map(p: np.ndarray) -> np.ndarray:
             cond = condensed(p)
             a = np.linalg.inv(d_ref + cond.flex_cw_m_n + cond.flex_mw_m_n)
@@ -387,7 +385,6 @@ class FastSpanModel:
             return np.column_stack([cond.w_flex_m_n, cond.w_dropper_weight, cond.w_support_left,
                                     cond.w_support_right, cond.w_weight_m, cond.w_extra[:, :n_extra]]).ravel()
 
-        self._condensed = condensed
         # Interpolate in reciprocal tensions (the string part of the operator is linear in 1/T)
         # and in the clamp offset.
         lower, upper = [1.0 / mw_hi, 1.0 / cw_hi, off_lo], [1.0 / mw_lo, 1.0 / cw_lo, off_hi]
@@ -406,6 +403,13 @@ class FastSpanModel:
         self._force = StackedMap(force.pruned(PRUNE_RTOL), n, n + 3 + n_extra)
         self._compliance = StackedMap(compliance.pruned(PRUNE_RTOL), n, n)
         self._deflection = StackedMap(deflection.pruned(PRUNE_RTOL), n, 2 * n + 3 + n_extra)
+
+    def _condensed(self, p: np.ndarray, **kwargs) -> CondensedSpan:
+        """The span condensed at ``p`` = (1/T_MW, 1/T_CW, δ) (δ read when the model was built with
+        ``cw_clamp_offset_bounds_m``); a method, not a closure, so that a model is pickled whole
+        (built in one process, used in another)."""
+        delta = p[2] if self._offset_is_input else self.cw_clamp_offset_m
+        return condense_span(self.span_type, self.catenary, 1.0 / p[0], 1.0 / p[1], delta, **self._around, **kwargs)
 
     @property
     def variable_offset(self) -> bool:

@@ -129,7 +129,7 @@ def _back(chainage_m: np.ndarray, length_m: float, direction: int) -> np.ndarray
 
 def force_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,
                     mode: str = "dynamic", time_step_s: float | None = None, neighbours: int = 2,
-                    step_n: float = 1.0) -> np.ndarray:
+                    step_n: float = 1.0, workers: int = 1) -> np.ndarray:
     """Sensitivity of the W a measuring pass reports to the pantograph's static force [m/N].
 
     The central span of ``2 neighbours + 1`` spans of ``span_type`` at the nominal table is run
@@ -139,6 +139,12 @@ def force_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantogr
     force higher by ΔF leaves ``ΔF ×`` this vector in the corrected W (the
     ``measuring_force_offset`` effect). Central difference: exact for the linear response of
     taut droppers (the measuring force slackens none of them).
+
+    Parameters
+    ----------
+    workers : int
+        Processes over the two passes (:func:`catenary.plumbing.workers.map_each`): each is its
+        own, so the influence is the same for any number.
 
     Returns
     -------
@@ -158,7 +164,8 @@ def force_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantogr
         return h[:n] - (h[n] + frac * (h[n + 1] - h[n]))
 
     f0 = pantograph.static_force_n
-    return (w(f0 + step_n) - w(f0 - step_n)) / (2.0 * step_n)
+    up, down = map_each(lambda k: w(f0 + (step_n, -step_n)[k]), 2, workers, 1)
+    return (up - down) / (2.0 * step_n)
 
 
 def profile_influence(span_type: SpanType, catenary: Catenary, pantograph: Pantograph, *, speed_m_s: float,

@@ -46,11 +46,11 @@ rule identify:
         model_error_enabled=config.get("model_error", {}).get("enabled", False),
         measurements=config.get("measurements"),
         correction=config["correction"],
-    # The profile intervals' ends run in `threads` worker processes (the same intervals for any
-    # number), one by default: the rest of the job (the optimiser's J evaluations one after the
-    # other) uses one core, and the two span types' jobs side by side use a laptop's two cores
-    # better than one after the other with two each (2 workers: 21 → 18 s on 1 500 spans). On a
-    # cluster: --set-threads identify=N with cpus_per_task N.
+    # `threads` processes share each of the optimiser's J evaluations, then the standard errors'
+    # points and the tasks after s_opt (the same answers for any number; 5 000 spans: 18.3 s on
+    # one, 12.0–12.3 s on two). Local runs give it one (workflow/profiles/default: the two span
+    # types' jobs side by side); a cluster job has cpus_per_task 2.
+    threads: 2
     log:
         f"{RESULTS}/logs/identify/{{span_type}}.log",
     benchmark:

@@ -19,7 +19,7 @@ from catenary.physics.measuring import force_influence, profile_influence
 from catenary.physics.pantograph import Pantograph
 from catenary.plumbing.parquet import read_table
 from catenary.stages.correction import CorrectionSettings, measuring_conditions
-from .profile_check import Influence, ProfileNoise, ProfileSettings, profile_tests
+from .profile_check import PROFILE_COLUMNS, Influence, ProfileNoise, ProfileSettings, profile_tests
 
 __all__ = ["MeasuringPass", "ProfileCheck", "measuring_pass_of", "profile_check_of"]
 
@@ -48,12 +48,13 @@ class MeasuringPass:
 
 
 def measuring_pass_of(corrected_path, span_type: SpanType, catenary: Catenary, pantograph: Pantograph,
-                      settings: CorrectionSettings) -> MeasuringPass:
-    """Median speed and force of the corrected spans' measuring passes, and the influence."""
+                      settings: CorrectionSettings, workers: int = 1) -> MeasuringPass:
+    """Median speed and force of the corrected spans' measuring passes, and the influence (its
+    two passes in ``workers`` processes)."""
     spans = read_table(corrected_path).sort_values("start_chainage_m")
     speed, force, _, _ = measuring_conditions(pd.DataFrame(spans), settings)
     influence = force_influence(span_type, catenary, pantograph.with_static_force(force), speed_m_s=speed,
-                                mode=settings.mode, time_step_s=settings.time_step_s)
+                                mode=settings.mode, time_step_s=settings.time_step_s, workers=workers)
     return MeasuringPass(speed_m_s=speed, force_n=force, influence_m_n=influence)
 
 
@@ -80,7 +81,7 @@ def profile_check_of(corrected_path, profiles_path, span_type: SpanType, catenar
     the final model's dropper forces (the smallest over the span's runs); the spans' tests in
     ``workers`` processes (the same table for any number)."""
     corrected = read_table(corrected_path)
-    profiles = read_table(profiles_path)
+    profiles = read_table(profiles_path, columns=list(PROFILE_COLUMNS), categorical=["span_id", "run_id"])
     directions = {(str(r.span_id), str(r.run_id)): int(r.direction) for r in corrected.itertuples()}
     x = np.linspace(0.0, span_type.length_m, int(round(span_type.length_m / INFLUENCE_STEP_M)) + 1)
     influences = {d: Influence.from_measuring(x, profile_influence(

@@ -28,6 +28,7 @@ from catenary.physics.config import Catenary, SpanType
 from catenary.physics.effects import EFFECTS, SpanParameters
 from catenary.physics.fast import SAMPLING_DEGREE, FastSpanModel, row_minimum
 from catenary.plumbing.errors import OutOfModelRangeError
+from catenary.plumbing.workers import map_each
 from catenary.stages.identification.design import map_inputs
 from .candidates import CANDIDATES
 
@@ -97,18 +98,33 @@ class ModelSet:
 
     def model(self, needs: frozenset[str], neighbours: int | None = None) -> FastSpanModel:
         """The fast model carrying ``needs`` (``contact_tension``, ``offset``, ``extended``)."""
-        k = self.neighbours if neighbours is None else neighbours
-        key = (frozenset(needs) & {"contact_tension", "offset", "extended"}, k)
+        key = self._key(needs, neighbours)
         if key not in self._cache:
-            t_cw = self.span_type.contact_tension_n
-            self._cache[key] = FastSpanModel(
-                self.span_type, self.catenary, messenger_tension_bounds_n=self.messenger_tension_bounds_n,
-                degree=self.degree, neighbours=k,
-                contact_tension_bounds_n=((1 - CONTACT_TENSION_RANGE) * t_cw, (1 + CONTACT_TENSION_RANGE) * t_cw)
-                if "contact_tension" in needs else None, contact_degree=CONTACT_DEGREE,
-                cw_clamp_offset_bounds_m=OFFSET_BOUNDS_M if "offset" in needs else None, offset_degree=OFFSET_DEGREE,
-                extended="extended" in needs)
+            self._cache[key] = self._build(key)
         return self._cache[key]
+
+    def prepare(self, needs: list[tuple[frozenset[str], int | None]], workers: int = 1) -> None:
+        """Build the models of ``needs`` (pairs of needs and neighbours, as :meth:`model` takes
+        them) not built yet, in ``workers`` processes (:func:`catenary.plumbing.workers.map_each`;
+        a model is the same computation in any process): the processes forked after (a step's
+        candidates) inherit them instead of each building its own."""
+        keys = list(dict.fromkeys(k for k in (self._key(*n) for n in needs) if k not in self._cache))
+        self._cache.update(zip(keys, map_each(lambda i: self._build(keys[i]), len(keys), workers, 1)))
+
+    def _key(self, needs: frozenset[str], neighbours: int | None = None) -> tuple:
+        return (frozenset(needs) & {"contact_tension", "offset", "extended"},
+                self.neighbours if neighbours is None else neighbours)
+
+    def _build(self, key: tuple) -> FastSpanModel:
+        needs, k = key
+        t_cw = self.span_type.contact_tension_n
+        return FastSpanModel(
+            self.span_type, self.catenary, messenger_tension_bounds_n=self.messenger_tension_bounds_n,
+            degree=self.degree, neighbours=k,
+            contact_tension_bounds_n=((1 - CONTACT_TENSION_RANGE) * t_cw, (1 + CONTACT_TENSION_RANGE) * t_cw)
+            if "contact_tension" in needs else None, contact_degree=CONTACT_DEGREE,
+            cw_clamp_offset_bounds_m=OFFSET_BOUNDS_M if "offset" in needs else None, offset_degree=OFFSET_DEGREE,
+            extended="extended" in needs)
 
 
 class EffectSampler:

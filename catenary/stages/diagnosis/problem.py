@@ -195,8 +195,9 @@ class Fit:
 
 def refit(problem: JointProblem, theta0: np.ndarray, box: ParameterBox, *, base_step: float = 0.2,
           effect_step: float = 1.0, max_evaluations: int = 4000, xtol: float = 1e-3, ftol: float = 1e-4,
-          method: str = "nelder-mead") -> Fit:
-    """Maximise J from ``theta0``.
+          method: str = "nelder-mead", workers: int = 1) -> Fit:
+    """Maximise J from ``theta0``; each J's model sample shared by ``workers`` processes
+    (:meth:`catenary.stages.identification.likelihood.Likelihood.parallel`: the same fit for any number).
 
     ``method="nelder-mead"``: Nelder–Mead, simplex steps ``base_step`` on the base coordinates and
     ``effect_step`` on the effects', stopped at ``xtol`` in θ and ``ftol`` in J.
@@ -204,6 +205,11 @@ def refit(problem: JointProblem, theta0: np.ndarray, box: ParameterBox, *, base_
     not certify its maximum, Nelder–Mead as above from the better of its end and ``theta0``, with
     what is left of the budget. The fit's message says which ended it.
     """
+    with problem.likelihood.parallel(workers):
+        return _refit(problem, theta0, box, base_step, effect_step, max_evaluations, xtol, ftol, method)
+
+
+def _refit(problem, theta0, box, base_step, effect_step, max_evaluations, xtol, ftol, method) -> Fit:
     lo, hi = problem.bounds(box)
     theta0 = np.clip(np.asarray(theta0, dtype=float), lo, hi)
     problem.best = (None, -np.inf)

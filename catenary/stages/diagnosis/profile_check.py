@@ -57,9 +57,11 @@ from scipy import special, stats
 
 from catenary.plumbing.workers import map_each
 
-__all__ = ["Influence", "ProfileNoise", "ProfileSettings", "base_columns", "estimate_noise", "hunter_max_normal_sf",
+__all__ = ["PROFILE_COLUMNS", "Influence", "ProfileNoise", "ProfileSettings", "base_columns", "estimate_noise", "hunter_max_normal_sf",
            "profile_tests", "tent_columns"]
 
+#: Columns of ``corrected_profiles.parquet`` the test reads.
+PROFILE_COLUMNS = ("span_id", "run_id", "x_m", "height_m", "simulated_height_m")
 #: Columns of :func:`profile_tests`' table.
 PROFILE_TEST_COLUMNS = ("span_id", "n_runs", "n_samples", "dof", "chi2", "p_global", "t_max", "p_local",
                         "p_profile", "peak_x_m", "peak_height_m", "peak_load_n", "bays_not_scanned")

@@ -54,6 +54,7 @@ import pandas as pd
 
 from catenary.measurement.channels.quantities import QUANTITIES, model_columns
 from catenary.measurement.channels.settings import MeasurementOption, MeasurementSettings
+from catenary.plumbing.workers import map_each
 from .candidates import CANDIDATES, format_magnitude
 from .locate import lr_power
 from .refits import moment_steps
@@ -295,7 +296,8 @@ def _existing_groups(obs, n: int, quantities: tuple[str, ...]):
     return groups, shared
 
 
-def recommend(ctx, qs: list[Question], settings: MeasurementSettings, extent: Extent, power: float) -> pd.DataFrame:
+def recommend(ctx, qs: list[Question], settings: MeasurementSettings, extent: Extent, power: float,
+              workers: int = 1) -> pd.DataFrame:
     """Every option's smallest extent, cost and power for every question, the recommendation
     marked (:data:`RECOMMENDATION_COLUMNS`; module docstring).
 
@@ -309,8 +311,11 @@ def recommend(ctx, qs: list[Question], settings: MeasurementSettings, extent: Ex
     extent : Extent
     power : float
         Power a measurement must reach.
+    workers : int
+        Processes over the models' moments and over the questions
+        (:func:`catenary.plumbing.workers.map_each`): each is its own computation, so the table
+        is the same for any number.
     """
-    rows = []
     made = ctx.observations
     measured = set() if made is None else {*made.quantities, *(o.quantity for o in made.line)}
     options = [o for o in settings.options if o.quantity in QUANTITIES and o.quantity not in measured]
@@ -319,43 +324,52 @@ def recommend(ctx, qs: list[Question], settings: MeasurementSettings, extent: Ex
     n_w = ctx.data.shape[0]
     where = _columns(n, quantities)
     existing, existing_prior = _existing_groups(made, n, quantities)
-    cache: dict = {}
 
-    def moments(model):
-        key = (model[0], np.asarray(model[1]).tobytes())
-        if key not in cache:
-            problem = ctx.problem(tuple(model[0]))
-            means, sigmas = problem.laws(model[1])
-            cache[key] = problem.likelihood.joint_moments(means, sigmas, problem.magnitudes(model[1]), quantities)
-        return cache[key]
+    def key(model) -> tuple:
+        return model[0], np.asarray(model[1]).tobytes()
 
-    directions_of: dict = {}
+    def at(model):
+        """The joint moments of a model at its coordinates θ, as a function of θ."""
+        problem = ctx.problem(tuple(model[0]))
+
+        def moments(theta):
+            means, sigmas = problem.laws(theta)
+            return problem.likelihood.joint_moments(means, sigmas, problem.magnitudes(theta), quantities)
+        return moments, problem.names
+
+    # Every model's moments, then the directions of the nulls a question reads (those of its
+    # contrasts up to the first whose truth or null cannot be drawn), each model once.
+    models = list({key(m): m for q in qs for c in q.contrasts for m in (c.truth, c.null)}.values())
+    found = dict(zip(map(key, models), map_each(lambda k: at(models[k])[0](models[k][1]), len(models), workers, 1)))
+    nulls = {}
+    for q in qs:
+        for c in q.contrasts:
+            if found[key(c.truth)] is None or found[key(c.null)] is None:
+                break
+            nulls.setdefault(key(c.null), c.null)
+    nulls = list(nulls.values())
 
     def directions(model):
-        key = (model[0], np.asarray(model[1]).tobytes())
-        if key not in directions_of:
-            problem = ctx.problem(tuple(model[0]))
+        moments, names = at(model)
+        return [((up[0] - down[0]) / h, (up[1] - down[1]) / h)
+                for up, down, h in moment_steps(moments, np.asarray(model[1], dtype=float), names)]
 
-            def at(t):
-                means, sigmas = problem.laws(t)
-                return problem.likelihood.joint_moments(means, sigmas, problem.magnitudes(t), quantities)
-            directions_of[key] = [((up[0] - down[0]) / h, (up[1] - down[1]) / h)
-                                  for up, down, h in moment_steps(at, np.asarray(model[1], dtype=float), problem.names)]
-        return directions_of[key]
+    directions_of = dict(zip(map(key, nulls), map_each(lambda k: directions(nulls[k]), len(nulls), workers, 1)))
 
-    for q in qs:
+    def rows_of(q: Question) -> list[dict]:
         prepared = []
         for c in q.contrasts:
-            truth, null = moments(c.truth), moments(c.null)
+            truth, null = found[key(c.truth)], found[key(c.null)]
             if truth is None or null is None:
                 prepared = None
                 break
-            prepared.append((c, (truth[0] - null[0], truth[1] - null[1]), directions(c.null), null[1]))
+            prepared.append((c, (truth[0] - null[0], truth[1] - null[1]), directions_of[key(c.null)], null[1]))
         if prepared and existing and min(
                 lr_power(noncentrality(change, dirs + [d for d, _ in existing_prior], ref, existing,
                                        np.r_[np.zeros(len(dirs)), [p for _, p in existing_prior]]),
                          c.n_shift, c.n_spread, q.level) for c, change, dirs, ref in prepared) >= power:
-            continue                   # what was measured already settles it: the diagnosis' own test answers
+            return []                  # what was measured already settles it: the diagnosis' own test answers
+        rows = []
         for o in options:
             acc = settings.accuracy[o.quantity]
             col = where[o.quantity]
@@ -390,6 +404,9 @@ def recommend(ctx, qs: list[Question], settings: MeasurementSettings, extent: Ex
                 c.label for c in q.contrasts), "option": o.name, "quantity": o.quantity, "per": o.per, "extent": k,
                 "available": available, "cost_h": float(o.cost_h * (1 if o.per in ("run", "line") else k)),
                 "power": p_k, "power_full": full, "enough": bool(np.isfinite(full) and full >= power)})
+        return rows
+
+    rows = [row for part in map_each(lambda k: rows_of(qs[k]), len(qs), workers, 1) for row in part]
     table = pd.DataFrame(rows, columns=[c for c in RECOMMENDATION_COLUMNS if c != "recommended"])
     table["recommended"] = False
     for _, part in table.groupby("question", sort=False):

@@ -123,7 +123,7 @@ class DiagnosisContext:
     """What every model of one diagnosis shares: data, design, model set, box."""
 
     def __init__(self, span_type, catenary, data, base, settings, force_influence, declared_force_n, effects, pairs,
-                 observations=None, workers: int = 1):
+                 observations=None, workers: int = 1, models: ModelSet | None = None):
         self.span_type, self.data, self.base, self.settings, self.pairs = span_type, data, base, settings, pairs
         self.observations = observations
         self.start = base.start_inputs(span_type, catenary)
@@ -136,8 +136,9 @@ class DiagnosisContext:
         self.design = draw_unit_design(settings.n_samples, dim, method=base.design, seed=settings.seed)
         t = span_type.messenger_tension_n
         lo, hi = messenger_tension_bounds_n(self.start, self.box)
-        self.models = ModelSet(span_type, catenary, (min(lo, 0.5 * t), max(hi, 1.5 * t)), base.neighbours,
-                               force_influence_m_n=force_influence)
+        self.models = models if models is not None else ModelSet(
+            span_type, catenary, (min(lo, 0.5 * t), max(hi, 1.5 * t)), base.neighbours,
+            force_influence_m_n=force_influence)
         self.declared_force_n = declared_force_n
         self.free_means = base.free_mean_names(n)
         self.free_sigmas = base.random_names(n)
@@ -412,7 +413,8 @@ def continue_refit(ctx: DiagnosisContext, current_effects: tuple[str, ...], fit:
     a bound), then the test again. J can only rise; the budgets and times add up."""
     problem = ctx.problem((*current_effects, test.effect))
     more = refit(problem, new.theta, ctx.box, base_step=0.02, effect_step=0.25,
-                 max_evaluations=ctx.settings.max_evaluations, xtol=ctx.settings.xtol, ftol=ctx.settings.ftol)
+                 max_evaluations=ctx.settings.max_evaluations, xtol=ctx.settings.xtol, ftol=ctx.settings.ftol,
+                 workers=ctx.workers)
     more = dataclasses.replace(more, n_evaluations=new.n_evaluations + more.n_evaluations,
                                time_s=new.time_s + more.time_s)
     return _tested(ctx, problem, fit, more, n_tests, detectable=test.detectable, score_statistic=test.score_statistic,

@@ -43,7 +43,7 @@ from catenary.stages.identification.runner import check_span_count
 from catenary.stages.identification.settings import IdentificationSettings
 from .candidates import CANDIDATES
 from .locate import Locate
-from .model import EffectSampler
+from .model import EffectSampler, ModelSet
 from .problem import Fit, JointProblem, refit, with_covariance
 from .settings import DiagnosisSettings
 from .span_check import SpanCheck, WLaw, check_spans, w_law
@@ -174,7 +174,8 @@ def _verdict(tests: list[CandidateTest], level: float, margin: float) -> tuple[s
 def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, identification: IdentificationSettings,
              settings: DiagnosisSettings, *, mast_pairs: np.ndarray | None = None,
              force_influence_m_n: np.ndarray | None = None, declared_force_n: float = 36.0, workers: int = 1,
-             n_left_out: int = 0, observations=None, log: logging.Logger | None = None) -> DiagnosisRun:
+             n_left_out: int = 0, observations=None, log: logging.Logger | None = None,
+             models: ModelSet | None = None) -> DiagnosisRun:
     """Run the forward selection of the module docstring on the measured W of one span type.
 
     Parameters
@@ -202,6 +203,8 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
         Measurements besides W, row by row with ``data_w_m``
         (:class:`catenary.measurement.channels.observations.Observations`): every model's J reads them
         jointly with W.
+    models : ModelSet, optional
+        The fast models of an earlier diagnosis of the same span type (built once for both).
     """
     log = log or _LOG
     t0 = time.perf_counter()
@@ -210,11 +213,19 @@ def diagnose(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray, iden
     n = span_type.n_droppers
     candidates, skipped = applicable_candidates(settings, base, n, force_influence_m_n is not None)
     ctx = DiagnosisContext(span_type, catenary, data, base, settings, force_influence_m_n, declared_force_n,
-                           (*settings.start_effects, *candidates), mast_pairs, observations, workers=workers)
+                           (*settings.start_effects, *candidates), mast_pairs, observations, workers=workers,
+                           models=models)
+    # The fast models of the starting model and of each candidate added to it, built side by
+    # side before the candidates' processes fork (they inherit them).
+    needs = []
+    for active in (tuple(settings.start_effects), *((*settings.start_effects, c) for c in candidates)):
+        need = frozenset().union(*(CANDIDATES[a].needs for a in active))
+        needs += [(need, None)] + ([(need, 1)] if "continuity" in need else [])
+    ctx.models.prepare(needs, workers)
     problem = ctx.problem(tuple(settings.start_effects))
     check_span_count(span_type.name, data.shape[0], len(problem.names), log, n_left_out=n_left_out)
     fit = refit(problem, np.zeros(len(problem.names)), ctx.box, base_step=base.initial_step, effect_step=1.0,
-                max_evaluations=base.max_evaluations)
+                max_evaluations=base.max_evaluations, workers=workers)
     start_fit = fit
     log.info("%s: starting model (%s) fitted: J = %.3f after %d evaluations in %.1f s (%s)", span_type.name,
              ", ".join(settings.start_effects) or "no effect", fit.j, fit.n_evaluations, fit.time_s, fit.message)
@@ -400,7 +411,8 @@ def diagnose_line(span_type: SpanType, catenary: Catenary, data, places, identif
     n_left_out = kwargs.pop("n_left_out", 0) + int(departing.sum())
     try:
         run = diagnose(span_type, catenary, bulk.w_m, identification, settings, mast_pairs=bulk.mast_pairs,
-                       log=log, n_left_out=n_left_out, observations=bulk.observations, **kwargs)
+                       log=log, n_left_out=n_left_out, observations=bulk.observations, models=first.context.models,
+                       **kwargs)
     except InputError as exc:          # too few spans left for the model's parameters
         log.warning("%s: the explained spans alone cannot be diagnosed (%s): the verdicts are those of every "
                     "span, the unexplained ones included", span_type.name, exc)

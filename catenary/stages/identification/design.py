@@ -301,7 +301,7 @@ class SpanInputs:
     system_height_right_m: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _horner(z, coefficients, out):       # pragma: no cover - compiled; tested through gamma_quantiles
     """``out[i, j] = Σ_p coefficients[p, j] z[i, j]^p`` by Horner's rule, one pass over z: the
     operations and their order of NumPy's whole-array passes (z·c₅, +c₄, ·z, …, +c₀), so the

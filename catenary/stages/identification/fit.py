@@ -375,8 +375,10 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
         information with each variance widened by the sandwich where that is wider
         (:func:`.dependence.widened_covariance`; needs ``mast_pairs``).
     workers : int
-        Processes for the J evaluations of the standard errors (the Hessian's and the sandwich's
-        points, :func:`evaluate_points`): the same standard errors for any number.
+        Processes that share each of the optimiser's J evaluations (:meth:`.Likelihood.parallel`)
+        and over which the J evaluations of the standard errors are spread (the Hessian's and
+        the sandwich's points, :func:`evaluate_points`): the same s_opt and standard errors for
+        any number.
     log : logging.Logger, optional
         Where the optimiser's progress goes (evaluations against the budget, elapsed time).
 
@@ -405,7 +407,8 @@ def identify(likelihood: Likelihood, start: tuple[RandomInput, ...], *,
     theta0 = np.clip(np.zeros(lo.size), lo, hi)
     t_start = time.perf_counter()
     run = run_nelder_mead if method == "nelder-mead" else _run_bobyqa
-    converged, message = run(problem, theta0, lo, hi, initial_step, max_evaluations, xtol, ftol)
+    with likelihood.parallel(workers):         # J after J: each J's model sample shared by the workers
+        converged, message = run(problem, theta0, lo, hi, initial_step, max_evaluations, xtol, ftol)
     # s_opt: the best evaluated point (what both optimisers return, up to ties).
     trace = list(problem.trace)
     n_eval = len(trace)

@@ -54,7 +54,8 @@ W's own fit (``LikelihoodValue.fit``) is computed exactly as without them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from contextlib import contextmanager
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import special
@@ -65,15 +66,19 @@ from catenary.measurement.channels.quantities import model_columns, observe
 from catenary.physics.effects import SpanParameters
 from catenary.physics.fast import FastSpanModel, row_minimum
 from catenary.plumbing.errors import OutOfModelRangeError
+from catenary.plumbing.workers import KeptProcesses
 from .design import UnitDesign, design_dimension, map_inputs
 
 __all__ = ["BANDWIDTH_RULES", "ESTIMATORS", "GaussianFit", "Likelihood", "LikelihoodValue",
-           "ModelSample", "fit_gaussian", "gaussian_log_density", "kernel_bandwidth",
+           "MOMENT_BLOCKS", "ModelSample", "SampleMoments", "fit_gaussian", "gaussian_log_density", "kernel_bandwidth",
            "kernel_log_density"]
 
 ESTIMATORS = ("gaussian", "kernel")
 BANDWIDTH_RULES = ("scott", "silverman")
 _LOG_2PI = float(np.log(2.0 * np.pi))
+#: Blocks of the design whose moments are summed apart and then added (:attr:`Likelihood.moment_blocks`):
+#: as many processes can share a J (:meth:`Likelihood.parallel`).
+MOMENT_BLOCKS = 4
 #: Bytes of one block of the data × model-sample distance matrix (kernel estimator).
 _KERNEL_BLOCK_BYTES = 16 * 2**20
 
@@ -245,6 +250,30 @@ class LikelihoodValue:
 
 
 @dataclass(frozen=True)
+class SampleMoments:
+    """Taper-weighted moments of a model sample (or a block of it) about ``shift`` (W) and
+    ``shift_y`` (the measured quantities besides W, when there are): ``sum_w = Σ w``,
+    ``sum_w2 = Σ w²``, ``s1 = Σ w (W − shift)``, ``s2 = Σ w (W − shift)(W − shift)ᵀ`` and the same
+    with the quantities Y (``s1y``, ``s2wy``, ``s2yy``; empty without them) [SI]. Two blocks'
+    moments about the same shifts add up (``+``)."""
+
+    sum_w: float
+    sum_w2: float
+    s1: np.ndarray
+    s2: np.ndarray
+    shift: np.ndarray
+    s1y: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    s2wy: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    s2yy: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    shift_y: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def __add__(self, other: "SampleMoments") -> "SampleMoments":
+        return SampleMoments(self.sum_w + other.sum_w, self.sum_w2 + other.sum_w2, self.s1 + other.s1,
+                             self.s2 + other.s2, self.shift, self.s1y + other.s1y, self.s2wy + other.s2wy,
+                             self.s2yy + other.s2yy, self.shift_y)
+
+
+@dataclass(frozen=True)
 class ModelSample:
     """Model sample of W under given laws: deflections, taper weights and dropper forces."""
 
@@ -275,7 +304,7 @@ class Likelihood:
     bandwidth : {"scott", "silverman"}
         Kernel bandwidth rule (kernel estimator only).
     chunk_size : int
-        Design rows mapped and evaluated at once.
+        Design rows mapped and evaluated at once, at most (J sums them in :attr:`moment_blocks`).
     noise_covariance_m2 : numpy.ndarray, optional
         Covariance R of one run's W error (n × n) [m²]: the law of a measured W is that of the
         model plus ``R / n_runs`` of its span (Gaussian estimator only). Default: none.
@@ -329,6 +358,7 @@ class Likelihood:
         self.bandwidth = bandwidth
         self.chunk_size = int(chunk_size)
         self.sampler = sampler
+        self._processes = None
         self._shift = data.mean(axis=0)
         self.n_runs = np.ones(data.shape[0], dtype=int) if n_runs is None else np.asarray(n_runs, dtype=int)
         if self.n_runs.shape != (data.shape[0],) or np.any(self.n_runs < 1):
@@ -500,43 +530,98 @@ class Likelihood:
             except np.linalg.LinAlgError:
                 return LikelihoodValue(-np.inf, slack, 0.0, "singular")
             return LikelihoodValue(float(np.sum(logp)), slack, n_eff, "ok", logp)
-        n = self.model.n_droppers
-        obs = self.observations
-        sum_w = sum_w2 = 0.0
-        s1 = np.zeros(n)
-        s2 = np.zeros((n, n))
-        m = 0 if obs is None else self._shift_y.size
-        s1y, s2wy, s2yy = np.zeros(m), np.zeros((n, m)), np.zeros((m, m))
-        for part in self._chunks(means, sigmas, extra, with_y=obs is not None):
-            if part is None:
-                return LikelihoodValue(-np.inf, np.nan, 0.0, "tension_out_of_bounds")
-            w, weight = part[:2]
-            c = w - self._shift
-            cw = c * weight[:, None]
-            sum_w += float(weight.sum())
-            sum_w2 += float(np.dot(weight, weight))
-            s1 += cw.sum(axis=0)
-            s2 += c.T @ cw
-            if obs is not None:
-                cy = part[3] - self._shift_y
-                cyw = cy * weight[:, None]
-                s1y += cyw.sum(axis=0)
-                s2wy += c.T @ cyw
-                s2yy += cy.T @ cyw
-        slack = 1.0 - sum_w / self.n_samples
+        moments = self.moments(means, sigmas, extra)
+        if moments is None:
+            return LikelihoodValue(-np.inf, np.nan, 0.0, "tension_out_of_bounds")
+        return self.value_of(moments)
+
+    def value_of(self, moments: SampleMoments) -> LikelihoodValue:
+        """J and diagnostics of this likelihood's data under the model sample whose moments are
+        ``moments`` (Gaussian estimator): the data may be other than those the moments were
+        accumulated about (the model sample does not depend on them)."""
+        slack = 1.0 - moments.sum_w / self.n_samples
         if slack > self.max_slack_fraction:
             return LikelihoodValue(-np.inf, slack, 0.0, "slack")
+        m = moments
         try:
-            fit = _fit_from_moments(sum_w, sum_w2, s1, s2, self._shift)
-            if obs is None:
+            fit = _fit_from_moments(m.sum_w, m.sum_w2, m.s1, m.s2, m.shift)
+            if self.observations is None:
                 logp = self.data_log_density(fit)
                 return LikelihoodValue(float(np.sum(logp)), slack, fit.n_effective, "ok", logp, fit)
-            joint = _joint_moments(sum_w, sum_w2, np.r_[s1, s1y], np.block([[s2, s2wy], [s2wy.T, s2yy]]),
-                                   np.r_[self._shift, self._shift_y])
+            joint = _joint_moments(m.sum_w, m.sum_w2, np.r_[m.s1, m.s1y], np.block([[m.s2, m.s2wy], [m.s2wy.T, m.s2yy]]),
+                                   np.r_[m.shift, m.shift_y])
             logp, line = self._joint_log_density(joint)
         except np.linalg.LinAlgError:
             return LikelihoodValue(-np.inf, slack, 0.0, "singular")
         return LikelihoodValue(float(np.sum(logp)) + line, slack, fit.n_effective, "ok", logp, fit, joint, line)
+
+    @property
+    def moment_blocks(self) -> list[tuple[int, int]]:
+        """Rows of the design summed together, in the order their sums are added: at least
+        :data:`MOMENT_BLOCKS` blocks of at most ``chunk_size`` rows, the same for any number
+        of processes (:meth:`parallel`)."""
+        n = self.n_samples
+        rows = max(1, min(self.chunk_size, -(-n // MOMENT_BLOCKS)))
+        return [(start, min(start + rows, n)) for start in range(0, n, rows)]
+
+    def _block_moments(self, first: int, stop: int, means: np.ndarray, sigmas: np.ndarray, extra) -> list | None:
+        """The moments of blocks ``first``…``stop − 1`` of :attr:`moment_blocks`, one
+        :class:`SampleMoments` each, or None if a T_MW sample lies out of the model's range."""
+        obs = self.observations
+        z = self.design.z
+        out = []
+        for begin, end in self.moment_blocks[first:stop]:
+            part = self._sample(z[begin:end], means, sigmas, extra)
+            if part is None:
+                return None
+            w, weight = part[0], self.taper_weights(part[1])
+            c = w - self._shift
+            cw = c * weight[:, None]
+            moments = dict(sum_w=float(weight.sum()), sum_w2=float(np.dot(weight, weight)), s1=cw.sum(axis=0),
+                           s2=c.T @ cw, shift=self._shift)
+            if obs is not None:
+                cy = part[2] - self._shift_y
+                cyw = cy * weight[:, None]
+                moments.update(s1y=cyw.sum(axis=0), s2wy=c.T @ cyw, s2yy=cy.T @ cyw, shift_y=self._shift_y)
+            out.append(SampleMoments(**moments))
+        return out
+
+    def moments(self, means: np.ndarray, sigmas: np.ndarray, extra=None) -> SampleMoments | None:
+        """Taper-weighted moments of the model sample of W (and of the measured quantities) at
+        the laws (means, sigmas), block by block (:attr:`moment_blocks`) and added in the blocks'
+        order — shared among the processes of :meth:`parallel` when it is open; None if a T_MW
+        sample lies out of the model's range."""
+        means = np.asarray(means, dtype=float)
+        sigmas = np.asarray(sigmas, dtype=float)
+        n_blocks = len(self.moment_blocks)
+        processes = self._processes
+        parts = processes.workers if processes is not None else 1
+        cuts = [round(k * n_blocks / parts) for k in range(parts + 1)]
+        calls = [(a, b, means, sigmas, extra) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+        found = processes.map(calls) if processes is not None else [self._block_moments(*c) for c in calls]
+        if any(f is None for f in found):
+            return None
+        blocks = [m for f in found for m in f]
+        total = blocks[0]
+        for m in blocks[1:]:
+            total = total + m
+        return total
+
+    @contextmanager
+    def parallel(self, workers: int):
+        """Within the block, each J's model sample is shared among ``workers`` processes (this
+        one and ``workers − 1`` forked helpers, :class:`catenary.plumbing.workers.KeptProcesses`):
+        the same J, bit for bit, for any number. For J evaluated one after the other (an
+        optimiser); J at many points at once is better spread over points (:func:`.fit.evaluate_points`)."""
+        if workers <= 1 or self._processes is not None:
+            yield self
+            return
+        self._processes = KeptProcesses(self._block_moments, workers)
+        try:
+            yield self
+        finally:
+            self._processes.close()
+            self._processes = None
 
     def _joint_log_density(self, joint) -> tuple[np.ndarray, float]:
         """Per span ``ln p`` of W and its measured quantities, and the line observations' term."""

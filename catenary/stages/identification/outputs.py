@@ -2,7 +2,7 @@
 
 ``s_opt.csv`` (:func:`.tables.s_opt_table`), ``trace.parquet`` (:func:`.tables.trace_table`,
 explicit Arrow schema :func:`.tables.trace_schema`), ``normality.json``
-(:func:`.runner.normality_report`), ``estimators.png``, ``band.png`` (:mod:`.figures`) and
+(:func:`.normality.normality_report`), ``estimators.png``, ``band.png`` (:mod:`.figures`) and
 ``identification.md`` (:func:`.report.markdown_report`) and, where the correction's model-error
 budget was measured, ``model_error.csv`` (:func:`catenary.stages.identification.propagation.budget_table`;
 headers only without it).

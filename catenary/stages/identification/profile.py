@@ -32,7 +32,9 @@ business); a mean interval that reaches the box edge is reported at the edge and
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from scipy import stats
@@ -46,7 +48,7 @@ from .likelihood import Likelihood, LikelihoodValue
 from .result import IdentificationResult
 from .scoring import fisher_scoring
 
-__all__ = ["INNER_FTOL", "ProfileInterval", "profile_intervals"]
+__all__ = ["INNER_FTOL", "ProfileInterval", "ProfileSearch", "profile_intervals", "profile_search"]
 
 #: Accuracy of J in each inner re-optimisation: 0.005 against the 1.92 drop that defines an end
 #: moves the signed root by ≈ 0.003, the end by ≈ 0.1 % of its distance from s_opt.
@@ -113,6 +115,23 @@ class _Held:
         return self.problem.objective(self.full(x))
 
 
+
+@dataclass(frozen=True)
+class ProfileSearch:
+    """The searches of a set of profile intervals' ends (:func:`profile_search`).
+
+    Attributes
+    ----------
+    ends : list of callable
+        One per end, low then high of each parameter: called with nothing, each returns
+        (θ_i at the end, whether it is the box's edge, J evaluations).
+    intervals : callable
+        From the ends' results, in the order of ``ends``, the list of :class:`ProfileInterval`.
+    """
+
+    ends: list[Callable[[], tuple[float, bool, int]]]
+    intervals: Callable[[list], list[ProfileInterval]]
+
 def _profile(problem: ScaledProblem, theta_opt, cov, i, t, lo, hi, max_evaluations, method):
     """P(t) and the maximising θ: the other coordinates re-optimised from the quadratic
     approximation's profile path, by Fisher scoring (Gaussian estimator) and by bounded
@@ -146,11 +165,13 @@ def _profile(problem: ScaledProblem, theta_opt, cov, i, t, lo, hi, max_evaluatio
     return -float(res.fun), held.full(res.x)
 
 
-def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], result: IdentificationResult, *,
-                      parameters: tuple[str, ...] | None = None, box: ParameterBox = ParameterBox(),
-                      level: float = 0.95, max_evaluations: int = 400, tolerance: float = 0.05,
-                      max_steps: int = 8, method: str = "fisher-scoring", workers: int = 1) -> list[ProfileInterval]:
-    """Profile-likelihood intervals of every free mean and σ of ``result`` (module docstring).
+def profile_search(likelihood: Likelihood, start: tuple[RandomInput, ...], result: IdentificationResult, *,
+                   parameters: tuple[str, ...] | None = None, box: ParameterBox = ParameterBox(),
+                   level: float = 0.95, max_evaluations: int = 400, tolerance: float = 0.05,
+                   max_steps: int = 8, method: str = "fisher-scoring") -> ProfileSearch:
+    """The searches of the profile-likelihood intervals' ends of every free mean and σ of
+    ``result`` (module docstring), to be run where the caller likes (:func:`profile_intervals`
+    runs them in worker processes).
 
     Parameters
     ----------
@@ -175,14 +196,11 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
     method : {"fisher-scoring", "nelder-mead"}
         Each re-optimisation of the other coordinates: Fisher scoring, then Nelder–Mead where it
         does not certify its maximum (module docstring), or Nelder–Mead alone.
-    workers : int
-        Processes over the intervals' ends (:func:`catenary.plumbing.workers.map_each`): each
-        end is searched from s_opt alone, so the intervals are the same for any number.
 
     Returns
     -------
-    list of ProfileInterval
-        In the order of ``result.free_parameters`` (those of ``parameters``).
+    ProfileSearch
+        One search per end, each from s_opt alone: the same intervals whatever runs them.
     """
     if not 0.0 < level < 1.0:
         raise ValueError(f"level: expected a probability in (0, 1), got {level!r}")
@@ -238,25 +256,48 @@ def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], re
                 t_out, r_out = t_new, r_new
         return t_in, False, problem.n_evaluations - first_evaluation
 
-    # Every end is its own search from s_opt: in worker processes, the same ends in any number.
+    # Every end is its own search from s_opt: in any process, in any order.
     tasks = [(i, side) for i in chosen for side in (-1.0, 1.0)]
-    found = map_each(lambda k: end(*tasks[k]), len(tasks), workers, 1)
-    out = []
-    for n_chosen, i in enumerate(chosen):
-        (low, low_edge, n_low), (high, high_edge, n_high) = found[2 * n_chosen], found[2 * n_chosen + 1]
-        ends, at_edge = [low, high], [low_edge, high_edge]
-        if i < nm:
-            k = problem.free_mean_idx[i]
-            values = [problem.mu0[k] + problem.mean_scale[k] * t for t in (theta_opt[i], *ends)]
-            statistic = "mu"
-        else:
-            k = problem.free_sigma_idx[i - nm]
-            values = [problem.sd0[k] * np.exp(t) for t in (theta_opt[i], *ends)]
-            statistic = "sigma"
-            if at_edge[0]:
-                values[1] = 0.0                  # the interval reaches σ = 0: no spread detected
-        out.append(ProfileInterval(parameter=start[k].name, statistic=statistic, estimate=float(values[0]),
-                                   low=float(values[1]), high=float(values[2]), low_at_boundary=at_edge[0],
-                                   high_at_boundary=at_edge[1],
-                                   n_evaluations=n_low + n_high))
-    return out
+
+    def intervals(found: list) -> list[ProfileInterval]:
+        out = []
+        for n_chosen, i in enumerate(chosen):
+            (low, low_edge, n_low), (high, high_edge, n_high) = found[2 * n_chosen], found[2 * n_chosen + 1]
+            ends, at_edge = [low, high], [low_edge, high_edge]
+            if i < nm:
+                k = problem.free_mean_idx[i]
+                values = [problem.mu0[k] + problem.mean_scale[k] * t for t in (theta_opt[i], *ends)]
+                statistic = "mu"
+            else:
+                k = problem.free_sigma_idx[i - nm]
+                values = [problem.sd0[k] * np.exp(t) for t in (theta_opt[i], *ends)]
+                statistic = "sigma"
+                if at_edge[0]:
+                    values[1] = 0.0                  # the interval reaches σ = 0: no spread detected
+            out.append(ProfileInterval(parameter=start[k].name, statistic=statistic, estimate=float(values[0]),
+                                       low=float(values[1]), high=float(values[2]), low_at_boundary=at_edge[0],
+                                       high_at_boundary=at_edge[1], n_evaluations=n_low + n_high))
+        return out
+
+    return ProfileSearch(ends=[partial(end, i, side) for i, side in tasks], intervals=intervals)
+
+
+def profile_intervals(likelihood: Likelihood, start: tuple[RandomInput, ...], result: IdentificationResult, *,
+                      workers: int = 1, **options) -> list[ProfileInterval]:
+    """Profile-likelihood intervals of every free mean and σ of ``result`` (module docstring).
+
+    Parameters
+    ----------
+    likelihood, start, result, **options
+        As :func:`profile_search`.
+    workers : int
+        Processes over the intervals' ends (:func:`catenary.plumbing.workers.map_each`): each
+        end is searched from s_opt alone, so the intervals are the same for any number.
+
+    Returns
+    -------
+    list of ProfileInterval
+        In the order of ``result.free_parameters`` (those of ``parameters``).
+    """
+    search = profile_search(likelihood, start, result, **options)
+    return search.intervals(map_each(lambda k: search.ends[k](), len(search.ends), workers, 1))

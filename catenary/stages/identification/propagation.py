@@ -26,14 +26,14 @@ so it always contains the statistical interval (a σ's low end is held at 0).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
 import pandas as pd
 from scipy.stats import norm
 
-from .fit import ScaledProblem
+from .fit import ScaledProblem, evaluate_points
 
 __all__ = ["MODEL_ERROR_COLUMNS", "SpanShifts", "Z95", "budget_table", "parameter_shifts", "span_shifts", "total_intervals"]
 
@@ -119,8 +119,12 @@ def span_shifts(shifts: pd.DataFrame, span_type: str, span_ids: np.ndarray, n_dr
 
 
 def parameter_shifts(problem: ScaledProblem, theta_opt: np.ndarray, covariance: np.ndarray,
-                     w_shifts: Mapping[str, np.ndarray], step: float) -> dict[str, np.ndarray]:
+                     w_shifts: Mapping[str, np.ndarray], step: float, workers: int = 1) -> dict[str, np.ndarray]:
     """Shift of the optimiser's coordinates θ per source (module docstring).
+
+    The model sample at each θ ± h e_i does not depend on the data: its moments are computed
+    once (in ``workers`` processes, :func:`.fit.evaluate_points`) and every source's shifted
+    data read under them (:meth:`.likelihood.Likelihood.value_of`).
 
     Parameters
     ----------
@@ -133,6 +137,8 @@ def parameter_shifts(problem: ScaledProblem, theta_opt: np.ndarray, covariance: 
         Source → shift of the data, shape (K, n) [m].
     step : float
         Central-difference step in θ.
+    workers : int
+        Processes over the points θ ± h e_i (the same shifts for any number).
 
     Returns
     -------
@@ -144,17 +150,17 @@ def parameter_shifts(problem: ScaledProblem, theta_opt: np.ndarray, covariance: 
     interior = np.isfinite(np.diag(covariance))            # a coordinate at a bound has NaN row and column
     c = np.where(np.outer(interior, interior), np.nan_to_num(covariance), 0.0)
     base = problem.likelihood
+    coordinates = np.flatnonzero(interior)
+    points = [theta + sign * step * np.eye(theta.size)[i] for i in coordinates for sign in (1.0, -1.0)]
+    moments = evaluate_points(lambda t: base.moments(*problem.laws(t)), points, workers)
     out = {}
     for source, dw in w_shifts.items():
         grads = []
         for sign in (1.0, -1.0):
-            shifted = replace(problem, likelihood=base.with_data(base.data_w_m + sign * dw), trace=[],
-                              recording=False, progress=None)
+            shifted = base.with_data(base.data_w_m + sign * dw)
+            j = np.array([-np.inf if m is None else shifted.value_of(m).j for m in moments])
             g = np.zeros(theta.size)
-            for i in np.flatnonzero(interior):
-                e = np.zeros(theta.size)
-                e[i] = step
-                g[i] = (shifted.j(theta + e) - shifted.j(theta - e)) / (2.0 * step)
+            g[coordinates] = (j[0::2] - j[1::2]) / (2.0 * step)
             grads.append(g)
         out[source] = c @ (0.5 * (grads[0] - grads[1]))
     return out

@@ -109,7 +109,8 @@ def markdown_report(run: IdentificationRun, *, source: str = "corrected.parquet"
             lines.append(f"| {label} | {'μ' if p.statistic == 'mu' else 'σ'} | {_fmt(p.estimate * scale, unit)} | "
                          f"[{_fmt(p.low * scale, unit)}, {_fmt(p.high * scale, unit)}] | "
                          f"[{_fmt(lo * scale, unit)}, {_fmt(hi * scale, unit)}] | {unit} | {verdict} |")
-        lines += ["", f"{sum(p.n_evaluations for p in run.profiles)} J evaluations, {run.profile_time_s:.1f} s.", ""]
+        lines += ["", f"{sum(p.n_evaluations for p in run.profiles)} J evaluations, {run.profile_time_s:.1f} s with "
+                  "the normality tests, the estimators figure and the band beside them.", ""]
     lines += model_error_lines(run.model_error, s_opt_table(r, run.profiles, run.model_error, s.profile_level),
                                run.model_error_shifts, run.data_w_m.shape[0], _label)
     lines += ["## Run", "",

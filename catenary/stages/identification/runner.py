@@ -13,27 +13,27 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import pandas as pd
 
 from catenary.physics.config import Catenary, SpanType
-from catenary.physics.fast import FastSpanModel
 from catenary.plumbing.errors import ConvergenceError, InputError
-from .normality import henze_zirkler
+from catenary.plumbing.workers import map_each
+from .normality import normality_tests
 from .propagation import SpanShifts, budget_table, parameter_shifts
 from .band import DeflectionBand, band_abscissae, deflection_band
 from .dependence import variance_inflation
 from .design import RandomInput, design_dimension, draw_unit_design
 from .fit import ScaledProblem, identify, make_likelihood
 from .likelihood import Likelihood, ModelSample, fit_gaussian, kernel_bandwidth
-from .profile import ProfileInterval, profile_intervals
+from .profile import ProfileInterval, profile_search
 from .result import IdentificationResult
-from .synthetic import simulate_deflections
 from .settings import IdentificationSettings
 
 __all__ = ["COMFORTABLE_SPANS_PER_PARAMETER", "IdentificationRun", "IdentifiedLaws", "identify_laws", "MarginalDensities", "check_span_count",
-           "marginal_densities", "normality_report", "run_identification"]
+           "marginal_densities", "run_identification"]
 
 _LOG = logging.getLogger(__name__)
 
@@ -105,76 +105,6 @@ def marginal_densities(sample: ModelSample, grid_m: np.ndarray, bandwidth: str =
                              n_effective=float(fit.n_effective), l1_distance=l1)
 
 
-def _hz_dict(values: np.ndarray, alpha: float, description: str) -> dict:
-    x = np.asarray(values, dtype=float)
-    out = {"sample": description}
-    if x.shape[0] <= x.shape[1]:
-        out.update(statistic=None, p_value=None, normal=None, alpha=float(alpha), n_samples=int(x.shape[0]),
-                   dimension=int(x.shape[1]),
-                   reason=f"{x.shape[0]} observations for {x.shape[1]} variables: the test needs more "
-                          "observations than variables")
-        return out
-    try:
-        r = henze_zirkler(x, alpha=alpha)
-    except ValueError as exc:          # e.g. a singular covariance: fewer random inputs than droppers
-        out.update(statistic=None, p_value=None, normal=None, alpha=float(alpha), n_samples=int(x.shape[0]),
-                   dimension=int(x.shape[1]), reason=str(exc))
-        return out
-    out.update(statistic=r.statistic, p_value=r.p_value, normal=r.normal, alpha=r.alpha, n_samples=r.n_samples,
-               dimension=r.dimension)
-    return out
-
-
-def normality_report(model: FastSpanModel, start: tuple[RandomInput, ...], result: IdentificationResult,
-                     data_w_m: np.ndarray, *, n_samples: int = 10_000, seed: int = 0,
-                     system_height_mode: str = "shared", alpha: float = 0.05) -> dict:
-    """Henze–Zirkler test of the model law of W at s0 and at s_opt, and of the data.
-
-    The model samples are i.i.d.: ``n_samples`` taut spans drawn by plain Monte Carlo from the
-    Gamma laws (:func:`.synthetic.simulate_deflections`, seed ``seed``, the same draws at s0 and
-    s_opt). The test's null distribution assumes independent observations: a scrambled Sobol
-    design is far more even than a random sample and gives p ≈ 1 whatever the law (HZ ≈ 0.96 at
-    N = 1e4 for N2, where i.i.d. samples give ≈ 1.0), and a Latin hypercube, stratified in every
-    input, is more even than a random sample too; so the design of J is not what is tested.
-
-    Parameters
-    ----------
-    model : FastSpanModel
-        Fast model of the span type.
-    start : tuple of RandomInput
-        s0.
-    result : IdentificationResult
-        Gives s_opt.
-    data_w_m : numpy.ndarray, shape (K, n)
-        Measured W [m].
-    n_samples : int
-        Size of each model sample.
-    seed : int
-        Seed of the model samples.
-    system_height_mode : {"shared", "independent"}
-    alpha : float
-        Level of the decisions ``normal``.
-
-    Returns
-    -------
-    dict
-        ``model_s0``, ``model_s_opt``, ``data``: each ``sample`` (description), ``statistic``,
-        ``p_value``, ``normal`` (normality not rejected at ``alpha``), ``alpha``, ``n_samples``,
-        ``dimension``; the statistic, p-value and decision are ``None`` (with a ``reason``) when
-        there are no more observations than variables.
-    """
-    mu0 = np.array([s.mean for s in start])
-    sd0 = np.array([s.sigma for s in start])
-    what = f"{n_samples} i.i.d. taut spans (plain Monte Carlo, seed {seed})"
-    draw = dict(n_spans=n_samples, seed=seed, system_height_mode=system_height_mode)
-    return {
-        "model_s0": _hz_dict(simulate_deflections(model, mu0, sd0, **draw), alpha, f"model W at s0: {what}"),
-        "model_s_opt": _hz_dict(simulate_deflections(model, result.means, result.sigmas, **draw), alpha,
-                                f"model W at s_opt: {what}"),
-        "data": _hz_dict(data_w_m, alpha, "measured W (converged spans of corrected.parquet)"),
-    }
-
-
 @dataclass(frozen=True)
 class IdentificationRun:
     """Everything one span type's identification produced.
@@ -194,7 +124,7 @@ class IdentificationRun:
     left_out : list of (str, str)
         Spans not used and why.
     normality : dict
-        :func:`normality_report`.
+        :func:`.normality.normality_report`.
     marginals : list of MarginalDensities
         One per ``settings.estimators_n_samples``, at s_opt.
     band : DeflectionBand
@@ -206,7 +136,8 @@ class IdentificationRun:
     profiles : list of ProfileInterval
         Profile-likelihood intervals of the configured parameters.
     profile_time_s : float
-        Wall time of the profile intervals [s].
+        Wall time of the profile intervals and of the tasks run beside them (the normality
+        tests, the estimators figure's marginals, the band) [s].
     total_time_s : float
         Wall time of :func:`run_identification` (fast model, identification, normality,
         marginals, band) [s].
@@ -355,7 +286,8 @@ def identify_laws(span_type: SpanType, catenary: Catenary, data_w_m: np.ndarray,
     budget = None
     if w_shifts and w_shifts.w_m and result.status == "ok":
         problem = ScaledProblem.for_inputs(lik, start, s.free_mean_names(n), random)
-        moved = parameter_shifts(problem, result.theta_opt, result.theta_covariance, w_shifts.w_m, s.hessian_step)
+        moved = parameter_shifts(problem, result.theta_opt, result.theta_covariance, w_shifts.w_m, s.hessian_step,
+                                 workers)
         budget = budget_table(problem, result.means, result.sigmas, [r.name for r in start], moved)
         for row in budget.itertuples():
             log.info("%s: model error: %s %s = %.6g, systematic %.3g (dominant: %s)", span_type.name, row.parameter,
@@ -427,40 +359,55 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
     n = span_type.n_droppers
     t_profile = time.perf_counter()
     profiled = s.profile_names(n)
-    profiles = []
+    search = None
     if profiled and result.status != "ok":
         # A profile needs the maximum and its curvature: none around a point that is neither.
         log.warning("%s: no profile intervals (status %s)", span_type.name, result.status)
     elif profiled:
-        profiles = profile_intervals(lik, start, result, parameters=profiled, level=s.profile_level,
-                                     max_evaluations=s.profile_max_evaluations, workers=workers)
+        search = profile_search(lik, start, result, parameters=profiled, level=s.profile_level,
+                                max_evaluations=s.profile_max_evaluations)
+    # What follows s_opt is independent tasks: the profile intervals' ends, the normality tests,
+    # the estimators figure's marginals (one design per N, seed + 2, same fast model, at s_opt)
+    # and the band — in worker processes together, the longest first.
+    sample_opt = lik.model_sample(result.means, result.sigmas)
+    fit_opt = fit_gaussian(sample_opt.w_m, sample_opt.weight)
+    sd_opt = np.sqrt(np.sum(fit_opt.chol**2, axis=1))
+    grid = fit_opt.mean + np.linspace(-4.5, 4.5, 181)[:, None] * sd_opt
+    dim = design_dimension(n, s.system_height_mode)
+
+    def marginals_at(n_est: int) -> MarginalDensities:
+        est = Likelihood(lik.model, draw_unit_design(n_est, dim, method=s.design, seed=s.seed + 2), data,
+                         system_height_mode=s.system_height_mode, bandwidth=s.bandwidth)
+        return marginal_densities(est.model_sample(result.means, result.sigmas), grid, s.bandwidth)
+
+    tests = normality_tests(lik.model, start, result, data, n_samples=s.normality_n_samples, seed=s.seed + 3,
+                            system_height_mode=s.system_height_mode, alpha=s.normality_alpha)
+    band_x = band_abscissae(span_type, s.band_n_points)
+    sizes = sorted(set(s.estimators_n_samples), reverse=True)     # handed out in this order: the largest first
+    tasks = ([partial(marginals_at, n_est) for n_est in sizes] + list(tests.values())
+             + [partial(deflection_band, lik.model, result.means, result.sigmas, x_m=band_x,
+                        n_samples=s.band_n_samples, level=s.band_level, design_method=s.design, seed=s.seed + 1,
+                        system_height_mode=s.system_height_mode)]
+             + (search.ends if search is not None else []))
+    found = map_each(lambda k: tasks[k](), len(tasks), workers, 1)
+    by_size = dict(zip(sizes, found))
+    marginals = [by_size[n_est] for n_est in s.estimators_n_samples]
+    found = found[len(sizes):]
+    normality = dict(zip(tests, found))
+    band = found[len(tests)]
+    profiles = search.intervals(found[len(tests) + 1:]) if search is not None else []
     profile_time = time.perf_counter() - t_profile
     for p in profiles:
         log.info("%s: %s %s = %.6g, %.0f %% profile interval [%.6g, %.6g]%s (%d evaluations)", span_type.name,
                  p.parameter, p.statistic, p.estimate, 100 * s.profile_level, p.low, p.high,
                  ": consistent with no spread" if p.no_spread_detected else "", p.n_evaluations)
-    log.info("%s: profile intervals of %d parameters in %.1f s", span_type.name, len(profiles), profile_time)
-    normality = normality_report(lik.model, start, result, data, n_samples=s.normality_n_samples, seed=s.seed + 3,
-                                 system_height_mode=s.system_height_mode, alpha=s.normality_alpha)
+    log.info("%s: profile intervals of %d parameters, the normality tests, the estimators figure and the band "
+             "in %.1f s", span_type.name, len(profiles), profile_time)
     for key, value in normality.items():
         log.info("%s: Henze–Zirkler %s: HZ = %s, p = %s", span_type.name, key, value["statistic"], value["p_value"])
-    # Estimators figure: one design per N (seed + 2), same fast model, at s_opt.
-    sample_opt = lik.model_sample(result.means, result.sigmas)
-    fit_opt = fit_gaussian(sample_opt.w_m, sample_opt.weight)
-    sd_opt = np.sqrt(np.sum(fit_opt.chol**2, axis=1))
-    grid = fit_opt.mean + np.linspace(-4.5, 4.5, 181)[:, None] * sd_opt
-    marginals = []
-    dim = design_dimension(n, s.system_height_mode)
-    for n_est in s.estimators_n_samples:
-        est = Likelihood(lik.model, draw_unit_design(n_est, dim, method=s.design, seed=s.seed + 2), data,
-                         system_height_mode=s.system_height_mode, bandwidth=s.bandwidth)
-        m = marginal_densities(est.model_sample(result.means, result.sigmas), grid, s.bandwidth)
-        marginals.append(m)
+    for n_est, m in zip(s.estimators_n_samples, marginals):
         log.info("%s: N = %d: mean L1 distance kernel–Gaussian over the droppers %.4f", span_type.name, n_est,
                  float(m.l1_distance.mean()))
-    band = deflection_band(lik.model, result.means, result.sigmas, x_m=band_abscissae(span_type, s.band_n_points),
-                           n_samples=s.band_n_samples, level=s.band_level, design_method=s.design, seed=s.seed + 1,
-                           system_height_mode=s.system_height_mode)
     at = np.searchsorted(band.x_m, span_type.dropper_positions_m)
     inside = (data >= band.lower_m[at]) & (data <= band.upper_m[at])
     log.info("%s: band %.0f %%: %d samples (%d slack dropped); measured W inside per dropper: %s", span_type.name,

@@ -112,7 +112,7 @@ class IdentificationSettings:
         Level of the Henze–Zirkler decisions.
     normality_n_samples : int
         Size of the i.i.d. model samples tested for normality at s0 and s_opt (the test costs
-        O(n²); see :func:`.runner.normality_report` for why not the design itself).
+        O(n²); see :func:`.normality.normality_report` for why not the design itself).
     measurement_noise : str or float
         The measured W's own error in the likelihood: ``"repeatability"`` (the covariance the
         runs of a recording measured several times show, :mod:`catenary.measurement.repeatability`, divided
