@@ -57,8 +57,8 @@ from scipy import special, stats
 
 from catenary.plumbing.workers import map_each
 
-__all__ = ["PROFILE_COLUMNS", "Influence", "ProfileNoise", "ProfileSettings", "base_columns", "estimate_noise", "hunter_max_normal_sf",
-           "profile_tests", "tent_columns"]
+__all__ = ["PROFILE_COLUMNS", "Influence", "ProfileNoise", "ProfileSettings", "base_columns", "estimate_noise",
+           "hunter_max_normal_sf", "profile_tests", "tent_columns"]
 
 #: Columns of ``corrected_profiles.parquet`` the test reads.
 PROFILE_COLUMNS = ("span_id", "run_id", "x_m", "height_m", "simulated_height_m")
