@@ -134,3 +134,41 @@ def test_supports_placed_within_a_grid_cell_are_uncorrelated_far_down_the_line()
     assert np.all(np.isfinite(fit.corr_next[:-1])) and np.isnan(fit.corr_next[-1])
     # |ρ| ≤ 0.01: a posterior that is one node to 1e-6 of its mass has a covariance of that order
     assert np.max(np.abs(fit.corr_next[:-1])) < 0.01, fit.corr_next
+
+
+@pytest.mark.parametrize("far", [False, True])
+def test_the_chains_marginal_likelihood_is_the_sum_over_every_path(far):
+    """The forward pass without transition matrices (``_forward``) against the chain's marginal
+    likelihood summed over every path of a small grid, path by path (4 supports × 5 trials: 625
+    paths). ``far``: one span's expected length puts its rows' sums below ``_TINY``, the rows
+    normalised in logarithms. Tolerance 1e-12 relative: sums of 625 positive terms in another
+    order."""
+    from itertools import product
+
+    from catenary.measurement.registration.section_fit import _TINY, _Chain
+
+    rng = np.random.default_rng(7)
+    n, s = 4, 5
+    lengths = np.array([60.0, 55.0, 63.0])
+    table = np.r_[0.0, np.cumsum(lengths)] + rng.normal(0, 0.05, n)
+    grid = table[:, None] + (np.arange(s) - s // 2)[None, :] * GRID_STEP_M
+    log_l = rng.normal(0, 2.0, (n, s))
+    chain = _Chain(Evidence(grid, log_l, np.full(n, np.nan), np.full(n, np.nan)), table, np.ones(n, bool), lengths)
+    chainage_map = ChainageMap(np.array([0.0, 1.0 + (0.05 if far else 0.0)]), 0.0)
+    length_std = 0.001 if far else 0.04
+    log_steps = chain.log_steps(chainage_map, length_std)
+    scaled = log_steps - log_steps.max(axis=1, keepdims=True)
+    rows = np.array([[np.exp(scaled[k, s - 1 - a:2 * s - 1 - a]).sum() for a in range(s)] for k in range(n - 1)])
+    assert (rows < _TINY).any() == far                  # the case the test means to reach
+    log_e = log_l + chain.table_terms(chainage_map, 0.1)
+    total = -np.inf
+    for path in product(range(s), repeat=n):
+        term = np.log(1.0 / s) + sum(log_e[k, path[k]] for k in range(n))
+        for k in range(n - 1):
+            window = log_steps[k, s - 1 - path[k]:2 * s - 1 - path[k]]
+            term += log_steps[k, path[k + 1] - path[k] + s - 1] - np.logaddexp.reduce(window)
+        total = np.logaddexp(total, term)
+    assert chain.run(chainage_map, 0.1, length_std) == pytest.approx(total, rel=1e-12)
+    dense, (gamma, _, _) = chain.run(chainage_map, 0.1, length_std, posterior=True)
+    assert dense == chain.run(chainage_map, 0.1, length_std)
+    np.testing.assert_allclose(gamma.sum(axis=1), 1.0, rtol=1e-12)

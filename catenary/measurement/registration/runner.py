@@ -118,6 +118,8 @@ masts' standard errors)."""
 
 #: Step of the coarse search of each mast [m].
 _COARSE_STEP_M = 0.05
+#: Cells (slopes × masts × offsets) of the coarse line's scores gathered at once: 8 MB of floats.
+_COARSE_BLOCK_CELLS = 2**20
 #: The recording's columns the registration reads (:func:`register_run`, :func:`masts_from_trace`,
 #: :func:`unregistered_run`).
 REGISTRATION_COLUMNS = ["chainage_m", "height_m", "stagger_m", "speed_kmh", "run_id", "direction"]
@@ -381,14 +383,18 @@ def _coarse_line(t: np.ndarray, predicted: np.ndarray, scores: np.ndarray, offse
     slopes = np.arange(slopes[0], slopes[1] + 0.5 * step / reach, step / reach)
     filled = np.nan_to_num(z, nan=0.0)
     best = (-np.inf, 0.0, 0.0)
-    for slope in slopes:
-        k = np.rint((offsets[None, :] + slope * (t - centre)[:, None] - offsets[0]) / step).astype(int)
+    rows = np.arange(t.size)[None, :, None]
+    per_block = max(1, _COARSE_BLOCK_CELLS // max(filled.size, 1))
+    for first in range(0, slopes.size, per_block):      # the slopes in blocks, each block at once
+        block = slopes[first:first + per_block]
+        k = np.rint((offsets[None, None, :] + block[:, None, None] * (t - centre)[None, :, None] - offsets[0])
+                    / step).astype(int)
         inside = (k >= 0) & (k < offsets.size)
-        values = np.where(inside, np.take_along_axis(filled, np.clip(k, 0, offsets.size - 1), axis=1), 0.0)
-        total = values.sum(axis=0) / t.size
-        i = int(np.argmax(total))
-        if total[i] > best[0]:
-            best = (float(total[i]), float(offsets[i]), float(slope))
+        values = np.where(inside, filled[rows, np.clip(k, 0, offsets.size - 1)], 0.0)
+        total = values.sum(axis=1) / t.size
+        s_best, i = np.unravel_index(int(np.argmax(total)), total.shape)     # the first of equal maxima
+        if total[s_best, i] > best[0]:
+            best = (float(total[s_best, i]), float(offsets[i]), float(block[s_best]))
     score, offset, slope = best
     line = offset + slope * (t - centre)
     agree = np.zeros(t.size, dtype=bool)
