@@ -68,12 +68,13 @@ the files are apart.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 
 from catenary.physics.config import Catenary
+from catenary.plumbing.workers import map_each
 from .chain import chain_supports, odometer_scale
 from .mapping import ChainageMap, fit_map
 from .section_fit import fit_section, height_evidence, table_std_from_residuals
@@ -900,6 +901,37 @@ def _two_spans(length: float, declared: str | None, catenary: Catenary, toleranc
             if error <= tolerance and (best is None or error < best[0] - 1e-9):
                 best = (error, a, b)
     return None if best is None else (best[1], best[2])
+
+
+def register_runs(samples_of: Callable[[str], pd.DataFrame], run_ids: Sequence[str], masts: pd.DataFrame,
+                  catenary: Catenary, settings: RegistrationSettings, lag: Callable[[str, float], float], *,
+                  log=None, table_from_trace: bool = False, workers: int = 1) -> list[RunRegistration]:
+    """Every run of a recording registered (:func:`register_run`; :func:`unregistered_run` where
+    ``settings.enabled`` is false), in the order of ``run_ids``.
+
+    The runs are independent: each is registered from its own trace and the same mast table, so
+    they go to ``workers`` forked processes, one run at a time each, and the registrations are
+    the same, bit for bit, for any number of workers. A run's sections follow each other (each
+    search starts from the previous section's map): a recording of one run uses one process.
+
+    Parameters
+    ----------
+    samples_of : callable
+        ``samples_of(run_id)``: the run's validated samples (each process reads only the runs it
+        registers).
+    run_ids : sequence of str
+    masts, catenary, settings, lag, log, table_from_trace
+        As :func:`register_run`.
+    workers : int
+        Processes (1: every run in this one, in turn).
+    """
+    def one(k: int) -> RunRegistration:
+        samples = samples_of(run_ids[k])
+        if not settings.enabled:
+            return unregistered_run(samples, masts, catenary)
+        return register_run(samples, masts, catenary, settings, lag, log=log, table_from_trace=table_from_trace)
+
+    return map_each(one, len(run_ids), workers, 1)
 
 
 def unregistered_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary) -> RunRegistration:
