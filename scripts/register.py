@@ -1,18 +1,27 @@
-"""Rule register: register the mast table onto every run's trace (or find the masts from it)."""
+"""Rule register: register the mast table onto every run's trace (or find the masts from it).
 
-import pandas as pd
+The runs go to the job's ``threads`` processes (one run each at a time); each process has one
+BLAS thread (set here, before NumPy loads; Snakemake sets the job's ``threads``).
+"""
 
-from catenary.measurement.recording import run_samples, validate_masts
-from catenary.measurement.registration import REGISTRATION_COLUMNS, RegistrationSettings, masts_from_trace, register_run, unregistered_run
-from catenary.measurement.registration.outputs import registration_figure, write_registration
-from catenary.physics.config import load_catenary
-from catenary.physics.pantograph import load_pantographs
-from catenary.plumbing.heap import steady_heap
-from catenary.plumbing.logs import rule_logger
-from catenary.plumbing.parquet import distinct_values, read_table
-from catenary.report.tables import write_shown
-from catenary.stages.correction import CorrectionSettings
-from catenary.stages.correction.lag import measuring_lag
+from catenary.plumbing.blas import one_blas_thread
+
+one_blas_thread(override=True)
+
+import pandas as pd  # noqa: E402
+
+from catenary.measurement.recording import run_samples, validate_masts  # noqa: E402
+from catenary.measurement.registration import (REGISTRATION_COLUMNS, RegistrationSettings,  # noqa: E402
+                                               masts_from_trace, register_runs)
+from catenary.measurement.registration.outputs import registration_figure, write_registration  # noqa: E402
+from catenary.physics.config import load_catenary  # noqa: E402
+from catenary.physics.pantograph import load_pantographs  # noqa: E402
+from catenary.plumbing.heap import steady_heap  # noqa: E402
+from catenary.plumbing.logs import rule_logger  # noqa: E402
+from catenary.plumbing.parquet import distinct_values, read_table  # noqa: E402
+from catenary.report.tables import write_shown  # noqa: E402
+from catenary.stages.correction import CorrectionSettings  # noqa: E402
+from catenary.stages.correction.lag import measuring_lag  # noqa: E402
 
 steady_heap()  # this process's allocator: freed arrays kept for the next ones (catenary.plumbing.heap)
 
@@ -39,14 +48,11 @@ if found:
     log.info("no mast table: %d masts in %d sections found along run %s", len(masts),
              masts["section_id"].nunique(), run_ids[0])
 masts.to_csv(snakemake.output.table, index=False, float_format="%.4f")
-runs = []
-for run_id in run_ids:
-    samples = samples_of(run_id)
-    run = (register_run(samples, masts, catenary, settings, lag, log=log, table_from_trace=found) if settings.enabled
-           else unregistered_run(samples, masts, catenary))
+runs = register_runs(samples_of, run_ids, masts, catenary, settings, lag, log=log, table_from_trace=found,
+                     workers=snakemake.threads)
+for run in runs:
     for row in run.sections[run.sections["reason"] != ""].itertuples():
         log.warning("%s", row.reason)
-    runs.append(run)
 write_registration(runs, snakemake.output.masts, snakemake.output.sections)
 registration_figure(pd.concat([r.masts for r in runs], ignore_index=True), snakemake.output.figure)
 write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

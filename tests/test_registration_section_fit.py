@@ -134,3 +134,75 @@ def test_supports_placed_within_a_grid_cell_are_uncorrelated_far_down_the_line()
     assert np.all(np.isfinite(fit.corr_next[:-1])) and np.isnan(fit.corr_next[-1])
     # |ρ| ≤ 0.01: a posterior that is one node to 1e-6 of its mass has a covariance of that order
     assert np.max(np.abs(fit.corr_next[:-1])) < 0.01, fit.corr_next
+
+
+@pytest.mark.parametrize("far", [False, True])
+def test_the_chains_marginal_likelihood_is_the_sum_over_every_path(far):
+    """The forward pass without transition matrices (``forward_pass``) against the chain's marginal
+    likelihood summed over every path of a small grid, path by path (4 supports × 5 trials: 625
+    paths). ``far``: one span's expected length puts its rows' sums below ``UNDERFLOW_ROW_SUM``, the rows
+    normalised in logarithms. Tolerance 1e-12 relative: sums of 625 positive terms in another
+    order."""
+    from itertools import product
+
+    from catenary.measurement.registration.section_chain import UNDERFLOW_ROW_SUM, SectionChain
+
+    rng = np.random.default_rng(7)
+    n, s = 4, 5
+    lengths = np.array([60.0, 55.0, 63.0])
+    table = np.r_[0.0, np.cumsum(lengths)] + rng.normal(0, 0.05, n)
+    grid = table[:, None] + (np.arange(s) - s // 2)[None, :] * GRID_STEP_M
+    log_l = rng.normal(0, 2.0, (n, s))
+    chain = SectionChain(grid, log_l, table, np.ones(n, bool), lengths)
+    chainage_map = ChainageMap(np.array([0.0, 1.0 + (0.05 if far else 0.0)]), 0.0)
+    length_std = 0.001 if far else 0.04
+    log_steps = chain.log_steps(chainage_map, length_std)
+    scaled = log_steps - log_steps.max(axis=1, keepdims=True)
+    rows = np.array([[np.exp(scaled[k, s - 1 - a:2 * s - 1 - a]).sum() for a in range(s)] for k in range(n - 1)])
+    assert (rows < UNDERFLOW_ROW_SUM).any() == far                  # the case the test means to reach
+    log_e = log_l + chain.table_terms(chainage_map, 0.1)
+    total = -np.inf
+    for path in product(range(s), repeat=n):
+        term = np.log(1.0 / s) + sum(log_e[k, path[k]] for k in range(n))
+        for k in range(n - 1):
+            window = log_steps[k, s - 1 - path[k]:2 * s - 1 - path[k]]
+            term += log_steps[k, path[k + 1] - path[k] + s - 1] - np.logaddexp.reduce(window)
+        total = np.logaddexp(total, term)
+    assert chain.run(chainage_map, 0.1, length_std) == pytest.approx(total, rel=1e-12)
+    dense, (gamma, _, _) = chain.run(chainage_map, 0.1, length_std, posterior=True)
+    assert dense == chain.run(chainage_map, 0.1, length_std)
+    np.testing.assert_allclose(gamma.sum(axis=1), 1.0, rtol=1e-12)
+
+
+def test_a_recordings_runs_are_registered_alike_in_one_process_or_two(catenary):
+    """``register_runs`` hands the runs to worker processes: each run's registration is its own,
+    so the tables are the same, bit for bit, as one process's and as ``register_run`` run by run
+    (two runs of a 6-span section, each its own trace)."""
+    import pandas as pd
+    import yaml
+
+    from catenary.measurement.recording import validate_masts
+    from catenary.measurement.registration import RegistrationSettings, register_run, register_runs
+
+    root = __import__("pathlib").Path(__file__).resolve().parents[1]
+    settings = RegistrationSettings.from_mapping(yaml.safe_load((root / "config" / "test.yaml").read_text())["registration"])
+    runs = {}
+    for run_id, seed in (("R1", 3), ("R2", 4)):
+        masts, trace, types = _section(catenary, 6, seed)
+        runs[run_id] = pd.DataFrame({"chainage_m": trace.chainage_m, "height_m": trace.height_m, "stagger_m": np.nan,
+                                     "speed_kmh": 40.0, "run_id": run_id, "direction": 1})
+    table = validate_masts(pd.DataFrame({"mast_id": [f"M{k}" for k in range(7)], "section_id": "S1",
+                                         "chainage_m": masts, "span_type": ["N2"] * 6 + [""]}), source="test table")
+
+    def lag(span_type, speed_kmh):
+        return 0.0
+
+    one = register_runs(runs.__getitem__, ["R1", "R2"], table, catenary, settings, lag, workers=1)
+    two = register_runs(runs.__getitem__, ["R1", "R2"], table, catenary, settings, lag, workers=2)
+    for run_id, a, b in zip(runs, one, two):
+        alone = register_run(runs[run_id], table, catenary, settings, lag)
+        assert a.run_id == b.run_id == run_id
+        assert list(a.sections["status"]) == ["registered"]               # a registration, not a refusal
+        for left, right in ((a, b), (a, alone)):
+            pd.testing.assert_frame_equal(left.masts, right.masts, check_exact=True)
+            pd.testing.assert_frame_equal(left.sections, right.sections, check_exact=True)

@@ -121,6 +121,9 @@ rule register:
         correction=config["correction"],
     # As ingest: on the chain to the correction.
     priority: 2
+    # The recording's runs in `threads` processes, one run each at a time (a run's sections follow
+    # each other: a recording of one run uses one; the default profile gives it 1 locally).
+    threads: 2
     log:
         f"{RESULTS}/logs/register.log",
     benchmark:

@@ -14,8 +14,8 @@ writes what the projection reads and what a user checks.
 
 from .mapping import ChainageMap, fit_map
 from .runner import (MAST_COLUMNS, REGISTRATION_COLUMNS, SECTION_COLUMNS, RunRegistration, masts_from_trace,
-                     register_run, unregistered_run)
+                     register_run, register_runs, unregistered_run)
 from .settings import RegistrationSettings
 
 __all__ = ["ChainageMap", "MAST_COLUMNS", "REGISTRATION_COLUMNS", "RegistrationSettings", "RunRegistration",
-           "SECTION_COLUMNS", "fit_map", "masts_from_trace", "register_run", "unregistered_run"]
+           "SECTION_COLUMNS", "fit_map", "masts_from_trace", "register_run", "register_runs", "unregistered_run"]

@@ -12,6 +12,7 @@ confidently in the wrong place does not tilt the map that judges it).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -60,7 +61,13 @@ class ChainageMap:
     def slope(self, table_m) -> np.ndarray:
         """d(recorded)/d(table) at table chainages [-]."""
         u = np.asarray(table_m, dtype=float) - self.reference_m
-        return np.polynomial.polynomial.polyval(u, np.polynomial.polynomial.polyder(self.coefficients))
+        return np.polynomial.polynomial.polyval(u, self._slope_coefficients)
+
+    @cached_property
+    def _slope_coefficients(self) -> np.ndarray:
+        """The derivative's coefficients, lowest degree first (kept: a section's fit asks for the
+        slope of one map many times)."""
+        return np.polynomial.polynomial.polyder(self.coefficients)
 
     def to_table(self, recorded_m) -> np.ndarray:
         """Table chainage of recorded chainages [m] (Newton's method on the monotonic map)."""

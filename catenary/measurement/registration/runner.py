@@ -68,12 +68,13 @@ the files are apart.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 
 from catenary.physics.config import Catenary
+from catenary.plumbing.workers import map_each
 from .chain import chain_supports, odometer_scale
 from .mapping import ChainageMap, fit_map
 from .section_fit import fit_section, height_evidence, table_std_from_residuals
@@ -118,6 +119,8 @@ masts' standard errors)."""
 
 #: Step of the coarse search of each mast [m].
 _COARSE_STEP_M = 0.05
+#: Cells (slopes × masts × offsets) of the coarse line's scores gathered at once: 8 MB of floats.
+_COARSE_BLOCK_CELLS = 2**20
 #: The recording's columns the registration reads (:func:`register_run`, :func:`masts_from_trace`,
 #: :func:`unregistered_run`).
 REGISTRATION_COLUMNS = ["chainage_m", "height_m", "stagger_m", "speed_kmh", "run_id", "direction"]
@@ -381,14 +384,18 @@ def _coarse_line(t: np.ndarray, predicted: np.ndarray, scores: np.ndarray, offse
     slopes = np.arange(slopes[0], slopes[1] + 0.5 * step / reach, step / reach)
     filled = np.nan_to_num(z, nan=0.0)
     best = (-np.inf, 0.0, 0.0)
-    for slope in slopes:
-        k = np.rint((offsets[None, :] + slope * (t - centre)[:, None] - offsets[0]) / step).astype(int)
+    rows = np.arange(t.size)[None, :, None]
+    per_block = max(1, _COARSE_BLOCK_CELLS // max(filled.size, 1))
+    for first in range(0, slopes.size, per_block):      # the slopes in blocks, each block at once
+        block = slopes[first:first + per_block]
+        k = np.rint((offsets[None, None, :] + block[:, None, None] * (t - centre)[None, :, None] - offsets[0])
+                    / step).astype(int)
         inside = (k >= 0) & (k < offsets.size)
-        values = np.where(inside, np.take_along_axis(filled, np.clip(k, 0, offsets.size - 1), axis=1), 0.0)
-        total = values.sum(axis=0) / t.size
-        i = int(np.argmax(total))
-        if total[i] > best[0]:
-            best = (float(total[i]), float(offsets[i]), float(slope))
+        values = np.where(inside, filled[rows, np.clip(k, 0, offsets.size - 1)], 0.0)
+        total = values.sum(axis=1) / t.size
+        s_best, i = np.unravel_index(int(np.argmax(total)), total.shape)     # the first of equal maxima
+        if total[s_best, i] > best[0]:
+            best = (float(total[s_best, i]), float(offsets[i]), float(block[s_best]))
     score, offset, slope = best
     line = offset + slope * (t - centre)
     agree = np.zeros(t.size, dtype=bool)
@@ -894,6 +901,37 @@ def _two_spans(length: float, declared: str | None, catenary: Catenary, toleranc
             if error <= tolerance and (best is None or error < best[0] - 1e-9):
                 best = (error, a, b)
     return None if best is None else (best[1], best[2])
+
+
+def register_runs(samples_of: Callable[[str], pd.DataFrame], run_ids: Sequence[str], masts: pd.DataFrame,
+                  catenary: Catenary, settings: RegistrationSettings, lag: Callable[[str, float], float], *,
+                  log=None, table_from_trace: bool = False, workers: int = 1) -> list[RunRegistration]:
+    """Every run of a recording registered (:func:`register_run`; :func:`unregistered_run` where
+    ``settings.enabled`` is false), in the order of ``run_ids``.
+
+    The runs are independent: each is registered from its own trace and the same mast table, so
+    they go to ``workers`` forked processes, one run at a time each, and the registrations are
+    the same, bit for bit, for any number of workers. A run's sections follow each other (each
+    search starts from the previous section's map): a recording of one run uses one process.
+
+    Parameters
+    ----------
+    samples_of : callable
+        ``samples_of(run_id)``: the run's validated samples (each process reads only the runs it
+        registers).
+    run_ids : sequence of str
+    masts, catenary, settings, lag, log, table_from_trace
+        As :func:`register_run`.
+    workers : int
+        Processes (1: every run in this one, in turn).
+    """
+    def one(k: int) -> RunRegistration:
+        samples = samples_of(run_ids[k])
+        if not settings.enabled:
+            return unregistered_run(samples, masts, catenary)
+        return register_run(samples, masts, catenary, settings, lag, log=log, table_from_trace=table_from_trace)
+
+    return map_each(one, len(run_ids), workers, 1)
 
 
 def unregistered_run(samples: pd.DataFrame, masts: pd.DataFrame, catenary: Catenary) -> RunRegistration:

@@ -41,9 +41,10 @@ of ``make validate``; docs/input_formats.md): the masts lie 0.104 / 0.102 m (RMS
 tails of 0.9 / 1.7 m; each section's table accuracy within 7 % of what its table's errors
 realized. ``κ`` matters only where the evidence would otherwise be trusted too much: 1.5 and 2
 give 0.104 / 0.104 m and 0.102 / 0.098 m; κ = 1 (the misfit at face value) put one section of the
-±1 m table's run 3.7 m off. The fit costs 0.1–0.3 s of CPU per section of 21 masts (one
-forward–backward pass of 20 products of 61 × 61 matrices per trial of the map and the two
-standard deviations).
+±1 m table's run 3.7 m off. Each trial of the map and the two standard deviations costs one
+forward pass over the section's 20 spans on a grid of 61 trials per support, compiled
+(:mod:`.section_chain`: each span's transitions are one lag density, so no 61 × 61 matrix is
+built); the maximum's posteriors take one forward–backward pass with the matrices.
 
 For a trace whose supports each come with a Gaussian error (the stagger's reversals, to a
 centimetre) the table's accuracy is the residuals' mean square less the fits' own variances
@@ -59,6 +60,7 @@ from scipy.optimize import minimize
 
 from catenary.physics.config import Catenary
 from .mapping import ChainageMap
+from .section_chain import SectionChain
 from .supports import Trace, pattern_misfit, valley_fit
 
 __all__ = ["EVIDENCE_TEMPER", "GRID_STEP_M", "PRIOR_MASTS", "Evidence", "SectionFit", "fit_section",
@@ -204,89 +206,6 @@ def height_evidence(trace: Trace, guess_m: np.ndarray, span_types: list, catenar
     return Evidence(guess[:, None] + shifts[None, :], log_l, own, own_std)
 
 
-def _log_normal(z2: np.ndarray, variance: float) -> np.ndarray:
-    return -0.5 * z2 / variance - 0.5 * np.log(2.0 * np.pi * variance)
-
-
-class _Chain:
-    """The section's model at given map and standard deviations: forward–backward on the grid."""
-
-    def __init__(self, evidence: Evidence, table_m: np.ndarray, listed: np.ndarray, lengths_m: np.ndarray):
-        self.grid = evidence.grid_m
-        self.log_l = evidence.log_likelihood
-        self.t = np.asarray(table_m, dtype=float)
-        self.listed = np.asarray(listed, dtype=bool)
-        self.lengths = np.asarray(lengths_m, dtype=float)
-        self.step = float(self.grid[0, 1] - self.grid[0, 0])
-        n = self.grid.shape[1]
-        # trial b of the next support minus trial a of this one is (b − a) steps: a Toeplitz matrix
-        self.lags = np.arange(-(n - 1), n) * self.step
-        self.toeplitz = np.arange(n)[None, :] - np.arange(n)[:, None] + n - 1
-
-    def table_terms(self, chainage_map: ChainageMap, table_std_m: float) -> np.ndarray:
-        """Log-likelihood of each listed mast's table chainage at each trial position [-]."""
-        expected = chainage_map.to_recorded(self.t)
-        slope = chainage_map.slope(self.t)
-        variance = (slope * table_std_m) ** 2 + self.step ** 2 / 12.0          # + the cell's quantisation
-        out = _log_normal((self.grid - expected[:, None]) ** 2, variance[:, None]) + np.log(slope)[:, None]
-        return np.where(self.listed[:, None], out, 0.0)
-
-    def transitions(self, chainage_map: ChainageMap, length_std_m: float) -> np.ndarray:
-        """P(next support's trial | this support's trial) of each span, truncated to the grid:
-        ``(n_spans, n_trials, n_trials)``, every span at once."""
-        middle = self.t[:-1] + 0.5 * self.lengths
-        expected = chainage_map.slope(middle) * self.lengths
-        variance = length_std_m ** 2 + self.step ** 2 / 6.0
-        d = (self.grid[1:, 0] - self.grid[:-1, 0] - expected)[:, None] + self.lags[None, :]
-        log_g = -0.5 * d * d / variance
-        p = np.exp(log_g - log_g.max(axis=1, keepdims=True))[:, self.toeplitz]
-        total = p.sum(axis=2, keepdims=True)
-        with np.errstate(invalid="ignore", divide="ignore"):        # such rows are done again below
-            out = p / total
-        # a row the span's length puts far off the grid: normalised in logarithms
-        for k in np.flatnonzero(~np.all(total > 1e-280, axis=(1, 2))):
-            log_p = log_g[k][self.toeplitz]
-            out[k] = np.exp(log_p - np.logaddexp.reduce(log_p, axis=1, keepdims=True))
-        return out
-
-    def run(self, chainage_map: ChainageMap, table_std_m: float, length_std_m: float, posterior: bool = False):
-        """Marginal log-likelihood; with ``posterior``, also each support's posterior on the grid,
-        the covariances of neighbouring supports (pairwise posteriors) and the table terms."""
-        table = self.table_terms(chainage_map, table_std_m)
-        log_e = self.log_l + table
-        top = log_e.max(axis=1, keepdims=True)
-        e = np.exp(log_e - top)
-        moves = self.transitions(chainage_map, length_std_m)
-        n, s = e.shape
-        alpha = np.empty_like(e)
-        norm = np.empty(n)
-        a = e[0] / s                                                # the first support: uniform over its grid
-        for k in range(n):
-            if k:
-                a = (alpha[k - 1] @ moves[k - 1]) * e[k]
-            norm[k] = a.sum()
-            if not norm[k] > 0:
-                return (-np.inf, None) if posterior else -np.inf
-            alpha[k] = a / norm[k]
-        log_likelihood = float(np.sum(np.log(norm)) + np.sum(top))
-        if not posterior:
-            return log_likelihood
-        beta = np.ones_like(e)
-        for k in range(n - 2, -1, -1):
-            beta[k] = moves[k] @ (e[k + 1] * beta[k + 1]) / norm[k + 1]
-        gamma = alpha * beta
-        gamma /= gamma.sum(axis=1, keepdims=True)
-        # Cov(x_k, x_{k+1}) about the posterior means (raw second moments of chainages of
-        # kilometres would cancel to noise where a posterior sits on one node)
-        centred = self.grid - (self.grid * gamma).sum(axis=1, keepdims=True)
-        cross = np.full(n, np.nan)
-        for k in range(n - 1):
-            xi = alpha[k][:, None] * moves[k] * (e[k + 1] * beta[k + 1])[None, :]
-            xi /= xi.sum()
-            cross[k] = float(centred[k] @ xi @ centred[k + 1])
-        return log_likelihood, (gamma, cross, table)
-
-
 def _map_from_nodes(values: np.ndarray, nodes: np.ndarray, reference_m: float) -> ChainageMap:
     degree = nodes.size - 1
     coefficients = np.linalg.solve(np.vander(nodes - reference_m, degree + 1, increasing=True), values)
@@ -344,7 +263,7 @@ def fit_section(evidence: Evidence, table_m: np.ndarray, listed: np.ndarray, len
     listed = np.asarray(listed, dtype=bool)
     if listed.sum() < 2:
         raise ValueError("fit_section: fewer than 2 listed masts")
-    chain = _Chain(evidence, t, listed, lengths_m)
+    chain = SectionChain(evidence.grid_m, evidence.log_likelihood, t, listed, lengths_m)
     reference = float(initial.reference_m)
     degree = int(max(1, min(degree, listed.sum() - 2)))
     nodes = np.linspace(t[listed].min(), t[listed].max(), degree + 1)
@@ -397,7 +316,7 @@ def fit_section(evidence: Evidence, table_m: np.ndarray, listed: np.ndarray, len
                       bool(result.success))
 
 
-def _place(chain: _Chain, gamma: np.ndarray, table: np.ndarray, chainage_map: ChainageMap,
+def _place(chain: SectionChain, gamma: np.ndarray, table: np.ndarray, chainage_map: ChainageMap,
            table_std_m: float) -> tuple[np.ndarray, np.ndarray]:
     """Each support's position and standard error from its posterior on the grid; where the table
     places a listed mast more finely than the grid's step, the Gaussian product of the table's
