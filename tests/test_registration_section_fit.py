@@ -4,10 +4,19 @@ droppers, the droppers' heights drawn about the design presag) less its own sag,
 0.1 m with 1 mm of noise and 1 mm quantisation by an odometer 0.3 % long and 7 m ahead; and the
 table's accuracy measured from residuals."""
 
+from itertools import product
+from pathlib import Path
+
 import numpy as np
+import pandas as pd
 import pytest
+import yaml
+
+from catenary.measurement.recording import validate_masts
+from catenary.measurement.registration import RegistrationSettings, register_run, register_runs
 
 from catenary.measurement.registration.mapping import ChainageMap
+from catenary.measurement.registration.section_chain import UNDERFLOW_ROW_SUM, SectionChain
 from catenary.measurement.registration.section_fit import (GRID_STEP_M, Evidence, fit_section, height_evidence,
                                                            table_std_from_residuals)
 from catenary.measurement.registration.supports import trace_of
@@ -142,11 +151,8 @@ def test_the_chains_marginal_likelihood_is_the_sum_over_every_path(far):
     likelihood summed over every path of a small grid, path by path (4 supports × 5 trials: 625
     paths). ``far``: one span's expected length puts its rows' sums below ``UNDERFLOW_ROW_SUM``, the rows
     normalised in logarithms. Tolerance 1e-12 relative: sums of 625 positive terms in another
-    order."""
-    from itertools import product
-
-    from catenary.measurement.registration.section_chain import UNDERFLOW_ROW_SUM, SectionChain
-
+    order; the posteriors (forward–backward with the matrices) against each support's trials
+    summed over the paths through them, to 1e-12."""
     rng = np.random.default_rng(7)
     n, s = 4, 5
     lengths = np.array([60.0, 55.0, 63.0])
@@ -162,30 +168,27 @@ def test_the_chains_marginal_likelihood_is_the_sum_over_every_path(far):
     assert (rows < UNDERFLOW_ROW_SUM).any() == far                  # the case the test means to reach
     log_e = log_l + chain.table_terms(chainage_map, 0.1)
     total = -np.inf
+    through = np.full((n, s), -np.inf)                  # log of the paths' sum through each trial
     for path in product(range(s), repeat=n):
         term = np.log(1.0 / s) + sum(log_e[k, path[k]] for k in range(n))
         for k in range(n - 1):
             window = log_steps[k, s - 1 - path[k]:2 * s - 1 - path[k]]
             term += log_steps[k, path[k + 1] - path[k] + s - 1] - np.logaddexp.reduce(window)
         total = np.logaddexp(total, term)
+        for k in range(n):
+            through[k, path[k]] = np.logaddexp(through[k, path[k]], term)
     assert chain.run(chainage_map, 0.1, length_std) == pytest.approx(total, rel=1e-12)
     dense, (gamma, _, _) = chain.run(chainage_map, 0.1, length_std, posterior=True)
     assert dense == chain.run(chainage_map, 0.1, length_std)
-    np.testing.assert_allclose(gamma.sum(axis=1), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(gamma, np.exp(through - total), rtol=0, atol=1e-12)
 
 
 def test_a_recordings_runs_are_registered_alike_in_one_process_or_two(catenary):
     """``register_runs`` hands the runs to worker processes: each run's registration is its own,
     so the tables are the same, bit for bit, as one process's and as ``register_run`` run by run
     (two runs of a 6-span section, each its own trace)."""
-    import pandas as pd
-    import yaml
-
-    from catenary.measurement.recording import validate_masts
-    from catenary.measurement.registration import RegistrationSettings, register_run, register_runs
-
-    root = __import__("pathlib").Path(__file__).resolve().parents[1]
-    settings = RegistrationSettings.from_mapping(yaml.safe_load((root / "config" / "test.yaml").read_text())["registration"])
+    config = yaml.safe_load((Path(__file__).resolve().parents[1] / "config" / "test.yaml").read_text())
+    settings = RegistrationSettings.from_mapping(config["registration"])
     runs = {}
     for run_id, seed in (("R1", 3), ("R2", 4)):
         masts, trace, types = _section(catenary, 6, seed)
