@@ -121,8 +121,9 @@ bench-line: setup
 # 1 core and on 2, their wall times, speed-ups and whether the answers are the same
 # (benchmarks/line_cores.py, into results/benchmarks.json).
 TYPE ?= N2
+REPEAT ?= 1
 bench-line-cores: setup
-	$(BIN)/python benchmarks/line_cores.py --spans $(SPANS) --span-type $(TYPE)
+	$(BIN)/python benchmarks/line_cores.py --spans $(SPANS) --span-type $(TYPE) --repeat $(REPEAT)
 
 # Campaigns of known truth through the whole pipeline (config/validation/): the identification's
 # validation table, the model-form differences and every hidden-effect campaign's diagnosis

@@ -2,7 +2,7 @@
 then check every span (and section) against the final model and diagnose again without the spans
 it does not explain.
 
-The refits run in ``threads`` worker processes. Snakemake sets OPENBLAS_NUM_THREADS and its kin
+The refits, and the writing of the figures and tables, run in ``threads`` worker processes. Snakemake sets OPENBLAS_NUM_THREADS and its kin
 to the job's ``threads`` (2); each process must use one BLAS thread instead, or the 3 processes
 start 6 spinning threads on 2 cores (measured: the small profile's diagnosis 4× slower), so
 they are reset here, before NumPy loads.
@@ -100,7 +100,8 @@ recommendations = recommend(line.run.context, asked, measurements, Extent.of_lin
 for r in recommendations[recommendations["recommended"]].itertuples():
     log.info("%s: %s — %s: measure %s on %d (%s; %.3g h), predicted power %.2f%s", span_type.name, r.kind, r.question,
              r.quantity, r.extent, r.per, r.cost_h, r.power, "" if r.enough else " (not enough)")
-write_line_diagnosis(line, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent), recommendations)
+write_line_diagnosis(line, DiagnosisPaths.in_folder(Path(snakemake.output.findings).parent), recommendations,
+                     workers=snakemake.threads)
 log.info("%s: named %s in %.0f s; %d spans unexplained", span_type.name, line.run.named or "nothing", line.run.time_s,
          line.check.n_unexplained)
 write_shown(snakemake.output)  # the report's copies of the tables, in an engineer's units

@@ -1,8 +1,8 @@
 """Rule identify: maximum-likelihood identification of one span type's input laws.
 
 The job's ``threads`` processes share each of the optimiser's J evaluations, then the standard
-errors' points and what follows s_opt (marginals, normality tests, band, profile intervals); each
-process has one BLAS thread (set here, before NumPy loads; Snakemake sets the job's ``threads``).
+errors' points, what follows s_opt (marginals, normality tests, band, profile intervals) and the
+writing of its figures and tables; each process has one BLAS thread (set here, before NumPy loads; Snakemake sets the job's ``threads``).
 """
 
 from catenary.plumbing.blas import one_blas_thread
@@ -59,7 +59,8 @@ write_identification(run, IdentificationPaths(s_opt=Path(out.s_opt), trace=Path(
                                               estimators=Path(out.estimators), normality=Path(out.normality),
                                               band=Path(out.band), report=Path(out.report),
                                               model_error=Path(out.model_error)),
-                     config_hash=settings_hash(snakemake.config), source=Path(snakemake.input.corrected).name)
+                     config_hash=settings_hash(snakemake.config), source=Path(snakemake.input.corrected).name,
+                     workers=snakemake.threads)
 for row in run.result.table_rows():
     log.info("s_opt %-22s mu %.6g ± %.3g  sigma %.4g ± %.3g%s", row["parameter"], row["mu"], row["mu_se"],
              row["sigma"], row["sigma_se"], "  (mean fixed)" if row["mu_fixed"] else "")

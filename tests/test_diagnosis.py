@@ -288,7 +288,7 @@ def test_the_sandwich_of_the_verdicts_candidates_gives_the_verdict_of_every_sand
     assert verdict == runner._verdict(list(every.values()), level, 6.0) == ("ambiguous", "b", "a")
 
 
-def test_the_verdict_and_its_figures_do_not_depend_on_the_workers(catenary, n2):
+def test_the_verdict_and_its_figures_do_not_depend_on_the_workers(catenary, n2, tmp_path):
     # The candidates' refits are independent and deterministic: run by one process in config
     # order, or by two that start the costliest (the CW offset's, 3.3× a base evaluation) first
     # and finish in any order, they give the same tests, in config order. Small design (N = 500,
@@ -314,6 +314,16 @@ def test_the_verdict_and_its_figures_do_not_depend_on_the_workers(catenary, n2):
     tables = [recommend(run.context, asked, MeasurementSettings(), Extent(30, 3, 33), 0.8, workers=w)
               for run, w in ((one, 1), (two, 2))]
     pd.testing.assert_frame_equal(*tables, check_exact=True)
+    # Its files — four figures and the tables — written by one process or by two side by side:
+    # the same bytes.
+    folders = [DiagnosisPaths.in_folder(tmp_path / f"workers_{w}") for w in (1, 2)]
+    for paths, w in zip(folders, (1, 2)):
+        write_diagnosis(two, paths, tables[0], workers=w)
+    written = sorted(p.name for p in (tmp_path / "workers_1").iterdir())
+    assert {"residuals.png", "findings.csv", "summary.md"} <= set(written)
+    assert written == sorted(p.name for p in (tmp_path / "workers_2").iterdir())
+    for name in written:
+        assert (tmp_path / "workers_1" / name).read_bytes() == (tmp_path / "workers_2" / name).read_bytes(), name
 
 
 def test_a_leading_refit_that_spent_its_budget_is_restarted_and_only_gains(catenary, n2):

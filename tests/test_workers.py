@@ -312,6 +312,28 @@ def test_the_profile_test_is_the_same_with_two_workers_and_reads_runs_in_any_row
             np.testing.assert_array_equal(x, run["x_m"].to_numpy())
             np.testing.assert_array_equal(y, (run["height_m"] - run["simulated_height_m"]).to_numpy())
     assert one.loc[one["span_id"] == "S007", "p_profile"].item() < 1e-3       # the point load is still found
+    # A table already grouped by span and run with x ascending (as the correction writes it) is
+    # read without sorting; one whose run runs backwards, or whose span comes back later, is sorted.
+    grouped = profiles.sort_values(["span_id", "run_id", "x_m"], kind="stable").reset_index(drop=True)
+    assert profile_check._grouped_in_order(*_codes(grouped))
+    backwards = pd.concat([grouped.iloc[:40].iloc[::-1], grouped.iloc[40:]], ignore_index=True)
+    first = grouped["span_id"] == grouped["span_id"].iloc[0]
+    come_back = pd.concat([grouped[first].iloc[:20], grouped[~first], grouped[first].iloc[20:]], ignore_index=True)
+    assert not profile_check._grouped_in_order(*_codes(backwards))
+    assert not profile_check._grouped_in_order(*_codes(come_back))
+    for table in (grouped, backwards, come_back):
+        for a, b in zip(profile_check._span_data(table), profile_check._span_data(grouped)):
+            assert a.span_id == b.span_id and len(a.runs) == len(b.runs)
+            for (xa, ya, _), (xb, yb, _) in zip(a.runs, b.runs):
+                np.testing.assert_array_equal(xa, xb)
+                np.testing.assert_array_equal(ya, yb)
+
+
+def _codes(profiles: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Span and (span, run) codes by first appearance and x, as the profile test numbers them."""
+    span_code, _ = pd.factorize(profiles["span_id"])
+    run_code, _ = pd.factorize(profiles["span_id"] + "|" + profiles["run_id"])
+    return span_code, run_code, profiles["x_m"].to_numpy(dtype=float)
 
 
 def test_the_hessian_and_scores_are_the_same_with_two_workers_and_recorded_in_order(catenary, n2, start):  # noqa: F811

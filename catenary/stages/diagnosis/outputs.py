@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from catenary.physics.names import engineer_input
+from catenary.plumbing.workers import map_each
 from .candidates import CANDIDATES, CandidateParameter, format_magnitude
 from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure, spans_figure
 from .recommend import RECOMMENDATION_COLUMNS, recommendation_text
@@ -286,13 +288,35 @@ def next_measurements_markdown(recommendations: pd.DataFrame | None) -> list[str
 
 def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, recommendations: pd.DataFrame | None = None, *,
                     with_unexplained: DiagnosisRun | None = None, n_unexplained: int = 0,
-                    extra_summary: list[str] | None = None) -> None:
+                    extra_summary: list[str] | None = None, workers: int = 1) -> None:
     """Write every output of one span type's diagnosis (``recommendations``: what to measure next,
     :func:`.recommend.recommend`; ``with_unexplained``, ``n_unexplained``: :func:`findings_table`;
-    ``extra_summary``: lines appended to ``summary.md``)."""
+    ``extra_summary``: lines appended to ``summary.md``; ``workers``: processes drawing the
+    figures and writing the tables side by side, the same files for any number)."""
+    tasks = _diagnosis_writers(run, paths, recommendations, with_unexplained, n_unexplained, extra_summary)
+    map_each(lambda k: tasks[k](), len(tasks), workers, 1)
+
+
+def _diagnosis_writers(run: DiagnosisRun, paths: DiagnosisPaths, recommendations: pd.DataFrame | None,
+                       with_unexplained: DiagnosisRun | None, n_unexplained: int,
+                       extra_summary: list[str] | None) -> list:
+    """The writers of :func:`write_diagnosis`, each of its own files, the figures first (the
+    longest): called in any order or process, they write the same files."""
     for p in paths.__dict__.values():
         if p is not None:
             Path(p).parent.mkdir(parents=True, exist_ok=True)
+    title = f"{run.span_type}"
+    figures = [partial(f, run, path, title) for f, path in ((residual_figure, paths.residuals),
+                                                            (eigenvalue_figure, paths.eigenvalues),
+                                                            (qq_figure, paths.qq), (score_figure, paths.scores))]
+    return figures + [partial(_write_diagnosis_tables, run, paths, recommendations, with_unexplained, n_unexplained,
+                              extra_summary)]
+
+
+def _write_diagnosis_tables(run: DiagnosisRun, paths: DiagnosisPaths, recommendations: pd.DataFrame | None,
+                            with_unexplained: DiagnosisRun | None, n_unexplained: int,
+                            extra_summary: list[str] | None) -> None:
+    """findings.csv, recommendations.csv, candidates.csv, steps.json and summary.md."""
     findings_table(run, recommendations, with_unexplained, n_unexplained).to_csv(paths.findings, index=False,
                                                                                  float_format="%.10g")
     if paths.recommendations is not None:
@@ -306,11 +330,6 @@ def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, recommendations: p
                                         "skipped": run.skipped, "data_henze_zirkler": run.data_normality,
                                         "final_effects": list(run.final.effects), "time_s": run.time_s,
                                         "steps": steps}) + "\n")
-    title = f"{run.span_type}"
-    residual_figure(run, paths.residuals, title)
-    eigenvalue_figure(run, paths.eigenvalues, title)
-    qq_figure(run, paths.qq, title)
-    score_figure(run, paths.scores, title)
     Path(paths.summary).write_text(summary_markdown(
         run, figures=tuple(Path(p).name for p in (paths.residuals, paths.eigenvalues, paths.qq, paths.scores)),
         recommendations=recommendations) + "\n\n" + "\n".join(extra_summary or []))
@@ -391,15 +410,23 @@ def _span_effects_markdown(line: LineDiagnosis) -> list[str]:
 
 
 def write_line_diagnosis(line: LineDiagnosis, paths: DiagnosisPaths,
-                         recommendations: pd.DataFrame | None = None) -> None:
+                         recommendations: pd.DataFrame | None = None, workers: int = 1) -> None:
     """Write a span type's diagnosis with its per-span check (:func:`write_diagnosis`, then
-    ``spans.csv``, ``sections.csv``, ``spans.png`` and the check's part of ``summary.md``)."""
-    write_diagnosis(line.run, paths, recommendations, with_unexplained=line.with_unexplained,
-                    n_unexplained=0 if line.with_unexplained is None else int(line.check.departing.sum()),
-                    extra_summary=spans_markdown(line))
+    ``spans.csv``, ``sections.csv``, ``spans.png`` and the check's part of ``summary.md``), the
+    figures and the tables in ``workers`` processes side by side (the same files for any number)."""
+    tasks = _diagnosis_writers(line.run, paths, recommendations, line.with_unexplained,
+                               0 if line.with_unexplained is None else int(line.check.departing.sum()),
+                               spans_markdown(line))
+    tasks.insert(0, partial(spans_figure, line.check.spans, line.check.sections, paths.spans_figure,
+                            line.run.span_type, line.run.settings.fdr))
+    tasks.append(partial(_write_check_tables, line, paths))
+    map_each(lambda k: tasks[k](), len(tasks), workers, 1)
+
+
+def _write_check_tables(line: LineDiagnosis, paths: DiagnosisPaths) -> None:
+    """spans.csv, span_effects.csv and sections.csv of the per-span check."""
     line.check.spans.to_csv(paths.spans, index=False, float_format="%.6g")
     if paths.span_effects is not None:
         (line.span_effects if line.span_effects is not None else pd.DataFrame(columns=list(SPAN_EFFECT_COLUMNS))
          ).to_csv(paths.span_effects, index=False, float_format="%.6g")
     line.check.sections.to_csv(paths.sections, index=False, float_format="%.6g")
-    spans_figure(line.check.spans, line.check.sections, paths.spans_figure, line.run.span_type, line.run.settings.fdr)

@@ -229,8 +229,9 @@ def _span_data(profiles: pd.DataFrame, influences: dict | None = None,
     run_code, _ = pd.factorize(span_code.astype(np.int64) * max(len(run_ids), 1) + run_of)  # (span, run) pairs
     x = profiles["x_m"].to_numpy(dtype=float)[keep]
     y = residual[keep]
-    order = np.lexsort((x, run_code, span_code))
-    x, y, run_code, span_code, run_of = x[order], y[order], run_code[order], span_code[order], run_of[order]
+    if not _grouped_in_order(span_code, run_code, x):   # a file written span by span, run by run needs no sort
+        order = np.lexsort((x, run_code, span_code))
+        x, y, run_code, span_code, run_of = x[order], y[order], run_code[order], span_code[order], run_of[order]
     ends = np.flatnonzero(np.diff(run_code)) + 1
     starts = np.r_[0, ends] if x.size else np.zeros(0, dtype=int)
     stops = np.r_[ends, x.size] if x.size else np.zeros(0, dtype=int)
@@ -244,6 +245,18 @@ def _span_data(profiles: pd.DataFrame, influences: dict | None = None,
         influence = influences.get(int(directions.get((span_id, run_id), 1)))
         out[-1].runs.append((x[a:b].copy(), y[a:b].copy(), influence))
     return out
+
+
+def _grouped_in_order(span_code: np.ndarray, run_code: np.ndarray, x: np.ndarray) -> bool:
+    """Whether the rows are already in the order ``np.lexsort((x, run_code, span_code))`` gives
+    (codes numbered by first appearance, so a table grouped by span, then run, with ``x``
+    ascending in each run is): checked in one pass instead of sorting."""
+    if x.size < 2:
+        return True
+    same_span = span_code[1:] == span_code[:-1]
+    same_run = same_span & (run_code[1:] == run_code[:-1])
+    return bool(np.all(span_code[1:] >= span_code[:-1]) and np.all(~same_span | (run_code[1:] >= run_code[:-1]))
+                and np.all(~same_run | (x[1:] >= x[:-1])))
 
 
 def _step(spans: list[_SpanData]) -> float:

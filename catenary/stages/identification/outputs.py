@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import pandas as pd
 
 from .propagation import MODEL_ERROR_COLUMNS
 from catenary.plumbing.parquet import write_table
+from catenary.plumbing.workers import map_each
 from .figures import band_figure, estimators_figure
 from .report import markdown_report
 from .runner import IdentificationRun
@@ -48,7 +50,7 @@ class IdentificationPaths:
 
 
 def write_identification(run: IdentificationRun, paths: IdentificationPaths, *, config_hash: str,
-                         source: str = "corrected.parquet") -> None:
+                         source: str = "corrected.parquet", workers: int = 1) -> None:
     """Write every output of one span type's identification.
 
     Parameters
@@ -59,9 +61,25 @@ def write_identification(run: IdentificationRun, paths: IdentificationPaths, *, 
         Hash of the workflow config, stored in the Parquet metadata.
     source : str
         Name of the data file, quoted in the report.
+    workers : int
+        Processes drawing the two figures and writing the tables side by side
+        (:func:`catenary.plumbing.workers.map_each`; each file is its own: the same files for any
+        number).
     """
     for p in (paths.s_opt, paths.trace, paths.estimators, paths.normality, paths.band, paths.report):
         Path(p).parent.mkdir(parents=True, exist_ok=True)
+    st = run.span_type.name
+    mark = "" if run.result.status == "ok" else f" [{run.result.status.upper().replace('_', ' ')}]"
+    tasks = [partial(estimators_figure, run.marginals, run.data_w_m, paths.estimators,
+                     f"{st}: marginals of W at s_opt, Gaussian (dashed) vs kernel (solid){mark}"),
+             partial(band_figure, run.band, run.data_w_m, run.span_type.dropper_positions_m, paths.band,
+                     f"{st}: {100 * run.band.level:.0f} % band of the CW deflection under s_opt{mark}"),
+             partial(_write_tables, run, paths, config_hash, source)]
+    map_each(lambda k: tasks[k](), len(tasks), workers, 1)
+
+
+def _write_tables(run: IdentificationRun, paths: IdentificationPaths, config_hash: str, source: str) -> None:
+    """s_opt.csv, model_error.csv, trace.parquet, normality.json and identification.md."""
     st = run.span_type.name
     s_opt_table(run.result, run.profiles, run.model_error, run.settings.profile_level).to_csv(paths.s_opt, index=False, float_format="%.17g")
     if paths.model_error is not None:
@@ -76,10 +94,5 @@ def write_identification(run: IdentificationRun, paths: IdentificationPaths, *, 
         json.dump({"span_type": st, "identification_status": status, "test": "Henze–Zirkler (lognormal p-value)",
                    **run.normality}, f, indent=2, ensure_ascii=False)
         f.write("\n")
-    mark = "" if status == "ok" else f" [{status.upper().replace('_', ' ')}]"
-    estimators_figure(run.marginals, run.data_w_m, paths.estimators,
-                      f"{st}: marginals of W at s_opt, Gaussian (dashed) vs kernel (solid){mark}")
-    band_figure(run.band, run.data_w_m, run.span_type.dropper_positions_m, paths.band,
-                f"{st}: {100 * run.band.level:.0f} % band of the CW deflection under s_opt{mark}")
     Path(paths.report).write_text(markdown_report(run, source=source,
                                                   figures=(Path(paths.estimators).name, Path(paths.band).name)))
