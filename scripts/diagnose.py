@@ -2,10 +2,10 @@
 then check every span (and section) against the final model and diagnose again without the spans
 it does not explain.
 
-The refits, and the writing of the figures and tables, run in ``threads`` worker processes. Snakemake sets OPENBLAS_NUM_THREADS and its kin
-to the job's ``threads`` (2); each process must use one BLAS thread instead, or the 3 processes
-start 6 spinning threads on 2 cores (measured: the small profile's diagnosis 4× slower), so
-they are reset here, before NumPy loads.
+The refits, and the writing of the figures and tables, run in ``threads`` worker processes.
+Snakemake sets OPENBLAS_NUM_THREADS and its kin to the job's ``threads`` (2); each process must use
+one BLAS thread instead, or the 3 processes start 6 spinning threads on 2 cores (measured: the
+small profile's diagnosis 4× slower), so they are reset here, before NumPy loads.
 """
 
 from catenary.plumbing.blas import one_blas_thread

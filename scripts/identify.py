@@ -2,7 +2,8 @@
 
 The job's ``threads`` processes share each of the optimiser's J evaluations, then the standard
 errors' points, what follows s_opt (marginals, normality tests, band, profile intervals) and the
-writing of its figures and tables; each process has one BLAS thread (set here, before NumPy loads; Snakemake sets the job's ``threads``).
+writing of its figures and tables; each process has one BLAS thread (set here, before NumPy
+loads; Snakemake sets the job's ``threads``).
 """
 
 from catenary.plumbing.blas import one_blas_thread

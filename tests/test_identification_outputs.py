@@ -64,7 +64,6 @@ def written(catenary, n2, data, tmp_path_factory):
     return run, paths, settings
 
 
-
 def test_the_outputs_written_by_two_processes_are_the_same_files(written, tmp_path):
     # The two figures and the tables written side by side by two processes: the files of one,
     # byte for byte (each writer its own files; the figures' drawing is deterministic).
@@ -74,6 +73,7 @@ def test_the_outputs_written_by_two_processes_are_the_same_files(written, tmp_pa
     for name in ("s_opt", "trace", "estimators", "normality", "band", "report", "model_error"):
         one_file, two_file = getattr(paths, name), getattr(two, name)
         assert one_file.read_bytes() == two_file.read_bytes(), name
+
 
 @pytest.mark.parametrize("neighbours", [0, 1])
 def test_profile_map_reproduces_the_fe_solve_of_each_sample(catenary, n2, line_model, truth, neighbours):

@@ -28,7 +28,7 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import TypeVar
 
-__all__ = ["KeptProcesses", "map_blocks", "map_each"]
+__all__ = ["KeptProcesses", "call_each", "map_blocks", "map_each"]
 
 T = TypeVar("T")
 
@@ -71,6 +71,13 @@ def map_each(function: Callable[[int], T], n_items: int, workers: int, block_siz
     blocks of ``block_size`` items, each block's values listed and the blocks joined."""
     blocks = map_blocks(lambda start, stop: [function(k) for k in range(start, stop)], n_items, workers, block_size)
     return [value for block in blocks for value in block]
+
+
+def call_each(tasks: Sequence[Callable[[], T]], workers: int) -> list[T]:
+    """Each of ``tasks`` called once, their results in order: independent tasks (a figure, a
+    table, a test) handed one at a time to ``workers`` forked processes (:func:`map_each` over
+    blocks of one); put the longest first."""
+    return map_each(lambda k: tasks[k](), len(tasks), workers, 1)
 
 
 def _serve(function: Callable, connection) -> None:

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from catenary.physics.names import engineer_input
-from catenary.plumbing.workers import map_each
+from catenary.plumbing.workers import call_each
 from .candidates import CANDIDATES, CandidateParameter, format_magnitude
 from .figures import eigenvalue_figure, qq_figure, residual_figure, score_figure, spans_figure
 from .recommend import RECOMMENDATION_COLUMNS, recommendation_text
@@ -294,7 +294,7 @@ def write_diagnosis(run: DiagnosisRun, paths: DiagnosisPaths, recommendations: p
     ``extra_summary``: lines appended to ``summary.md``; ``workers``: processes drawing the
     figures and writing the tables side by side, the same files for any number)."""
     tasks = _diagnosis_writers(run, paths, recommendations, with_unexplained, n_unexplained, extra_summary)
-    map_each(lambda k: tasks[k](), len(tasks), workers, 1)
+    call_each(tasks, workers)
 
 
 def _diagnosis_writers(run: DiagnosisRun, paths: DiagnosisPaths, recommendations: pd.DataFrame | None,
@@ -420,7 +420,7 @@ def write_line_diagnosis(line: LineDiagnosis, paths: DiagnosisPaths,
     tasks.insert(0, partial(spans_figure, line.check.spans, line.check.sections, paths.spans_figure,
                             line.run.span_type, line.run.settings.fdr))
     tasks.append(partial(_write_check_tables, line, paths))
-    map_each(lambda k: tasks[k](), len(tasks), workers, 1)
+    call_each(tasks, workers)
 
 
 def _write_check_tables(line: LineDiagnosis, paths: DiagnosisPaths) -> None:

@@ -19,7 +19,7 @@ import pandas as pd
 
 from .propagation import MODEL_ERROR_COLUMNS
 from catenary.plumbing.parquet import write_table
-from catenary.plumbing.workers import map_each
+from catenary.plumbing.workers import call_each
 from .figures import band_figure, estimators_figure
 from .report import markdown_report
 from .runner import IdentificationRun
@@ -63,7 +63,7 @@ def write_identification(run: IdentificationRun, paths: IdentificationPaths, *, 
         Name of the data file, quoted in the report.
     workers : int
         Processes drawing the two figures and writing the tables side by side
-        (:func:`catenary.plumbing.workers.map_each`; each file is its own: the same files for any
+        (:func:`catenary.plumbing.workers.call_each`; each file is its own: the same files for any
         number).
     """
     for p in (paths.s_opt, paths.trace, paths.estimators, paths.normality, paths.band, paths.report):
@@ -75,7 +75,7 @@ def write_identification(run: IdentificationRun, paths: IdentificationPaths, *, 
              partial(band_figure, run.band, run.data_w_m, run.span_type.dropper_positions_m, paths.band,
                      f"{st}: {100 * run.band.level:.0f} % band of the CW deflection under s_opt{mark}"),
              partial(_write_tables, run, paths, config_hash, source)]
-    map_each(lambda k: tasks[k](), len(tasks), workers, 1)
+    call_each(tasks, workers)
 
 
 def _write_tables(run: IdentificationRun, paths: IdentificationPaths, config_hash: str, source: str) -> None:

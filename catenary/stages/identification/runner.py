@@ -20,7 +20,7 @@ import pandas as pd
 
 from catenary.physics.config import Catenary, SpanType
 from catenary.plumbing.errors import ConvergenceError, InputError
-from catenary.plumbing.workers import map_each
+from catenary.plumbing.workers import call_each
 from .normality import normality_tests
 from .propagation import SpanShifts, budget_table, parameter_shifts
 from .band import DeflectionBand, band_abscissae, deflection_band
@@ -389,7 +389,7 @@ def run_identification(span_type: SpanType, catenary: Catenary, data_w_m: np.nda
                         n_samples=s.band_n_samples, level=s.band_level, design_method=s.design, seed=s.seed + 1,
                         system_height_mode=s.system_height_mode)]
              + (search.ends if search is not None else []))
-    found = map_each(lambda k: tasks[k](), len(tasks), workers, 1)
+    found = call_each(tasks, workers)
     by_size = dict(zip(sizes, found))
     marginals = [by_size[n_est] for n_est in s.estimators_n_samples]
     found = found[len(sizes):]
