@@ -51,15 +51,18 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import openturns as ot
 from numba import njit
 from scipy import special
 from scipy.stats import qmc
 
 from catenary.physics.config import Catenary, SpanType
 from catenary.physics.dropper_table import nominal_dropper_lengths
+
+if TYPE_CHECKING:                      # OpenTURNS is loaded where it is used: the LHS design and the
+    import openturns as ot             # Gamma law as its object (0.4 s of a job's imports otherwise)
 
 __all__ = [
     "CORNISH_FISHER_MAX_CV", "DEFAULT_DESIGN", "DESIGN_METHODS", "MESSENGER_TENSION", "SYSTEM_HEIGHT",
@@ -117,6 +120,7 @@ class RandomInput:
 
     def distribution(self) -> ot.Gamma:
         """The law as an OpenTURNS ``Gamma(k, λ, γ=0)``."""
+        import openturns as ot
         return ot.Gamma(self.shape, self.rate, 0.0)
 
     def quantile(self, u: np.ndarray) -> np.ndarray:
@@ -230,6 +234,7 @@ def draw_unit_design(n_samples: int, dimension: int, *, method: str = DEFAULT_DE
         # One OpenTURNS LHSExperiment per column (independent random permutations and random
         # positions in the cells: a Latin hypercube); column-wise keeps the transient memory of
         # OpenTURNS' samples to one column (≈ 60 MB at N = 1e6 instead of ≈ 600 MB).
+        import openturns as ot
         state = ot.RandomGenerator.GetState()
         u = np.empty((int(n_samples), int(dimension)))
         try:

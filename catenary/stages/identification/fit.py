@@ -38,7 +38,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import openturns as ot
 from scipy.optimize import minimize
 
 from catenary.physics.config import Catenary, SpanType
@@ -297,6 +296,7 @@ def run_nelder_mead(problem, theta0, lo, hi, initial_step, max_evaluations, xtol
 
 
 def _run_bobyqa(problem, theta0, lo, hi, initial_step, max_evaluations, xtol, ftol):
+    import openturns as ot              # only BOBYQA needs it (0.4 s of a job's imports otherwise)
     fn = ot.PythonFunction(lo.size, 1, lambda x: [problem.objective(np.array(x))])
     ot_problem = ot.OptimizationProblem(fn)
     ot_problem.setBounds(ot.Interval(lo.tolist(), hi.tolist()))
